@@ -1,0 +1,53 @@
+#ifndef EXCITE_CLIENT_EXCITE_CLIENT_H_
+#define EXCITE_CLIENT_EXCITE_CLIENT_H_
+
+#include <chrono>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "excite/v1/exploration_service.grpc.pb.h"
+
+namespace excite::client {
+
+struct ClientOptions {
+  // Deadline of each call unless a call says otherwise.
+  std::chrono::milliseconds default_deadline{30000};
+  // Deadline of PlanInputs (solves can take a while).
+  std::chrono::milliseconds plan_deadline{60000};
+};
+
+// A thin synchronous wrapper over ExplorationService stubs: sets deadlines and
+// turns grpc::Status into absl::Status (same code, same message). Thread-safe.
+class ExciteClient {
+ public:
+  // `target` is "host:port". Insecure channel (loopback default).
+  static std::unique_ptr<ExciteClient> Connect(const std::string& target,
+                                               ClientOptions options = {});
+  // Waits until the channel is ready or the timeout passes (UNAVAILABLE).
+  absl::Status WaitForReady(std::chrono::milliseconds timeout);
+
+  absl::StatusOr<v1::Session> CreateSession(const v1::SessionConfig& config,
+                                            const std::string& session_id = "");
+  absl::StatusOr<v1::Session> GetSession(const std::string& name);
+  absl::StatusOr<v1::ListSessionsResponse> ListSessions(int page_size,
+                                                        const std::string& page_token);
+  absl::Status DeleteSession(const std::string& name);
+  // One stream carrying `batches` as consecutive messages.
+  absl::StatusOr<v1::AddDataResponse> AddData(
+      const std::string& session, const std::vector<std::vector<v1::Transition>>& batches);
+  absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request);
+  absl::StatusOr<v1::PlanInputsResponse> PlanInputs(const std::string& session,
+                                                    const std::vector<double>& state);
+
+ private:
+  ExciteClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options);
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::ExplorationService::Stub> stub_;
+  ClientOptions options_;
+};
+
+}  // namespace excite::client
+
+#endif  // EXCITE_CLIENT_EXCITE_CLIENT_H_

@@ -1,0 +1,100 @@
+#ifndef EXCITE_SERVER_GP_DYNAMICS_MODEL_H_
+#define EXCITE_SERVER_GP_DYNAMICS_MODEL_H_
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "server/gp/dynamics_predictor.h"
+#include "server/gp/hyperparameter_fit.h"
+#include "server/gp/hyperparameters.h"
+
+namespace excite::gp {
+
+enum class Target {
+  kDelta,  // each GP regresses x_{k+1} - x_k
+  kNext,   // each GP regresses x_{k+1}
+};
+
+// Everything that configures a DynamicsModel, in the units of the data.
+struct DynamicsModelOptions {
+  int state_dim = 0;
+  int input_dim = 0;
+  Target target = Target::kDelta;
+  // Known measurement noise variance of the state (> 0).
+  double measurement_noise_variance = 0.0;
+  // Fit the target's noise variance (floor: measurement_noise_variance). If false
+  // it is fixed at measurement_noise_variance for kNext and twice that for kDelta
+  // (both measurements of a difference are noisy).
+  bool fit_noise = true;
+  // Fit kernel hyperparameters by ML-II; if false, `fixed` (state_dim entries)
+  // is used as is.
+  bool fit_kernel = true;
+  std::vector<Hyperparameters> fixed;
+  FitOptions fit;
+  // Centre and half-width of each dimension of z used to normalise GP inputs
+  // (z_dim entries each). A non-finite entry means "from the data at the first
+  // fit". Typically from the region of interest and the input bounds.
+  Eigen::VectorXd input_center;
+  Eigen::VectorXd input_half_width;
+};
+
+// One independent exact GP (squared-exponential ARD kernel) per state dimension on
+// inputs z = (x, u). Inputs are normalised with the fixed centre/half-width, each
+// output is standardised with its targets' mean and standard deviation, refreshed
+// at every Refit(). Not thread-safe for mutation; const methods may run
+// concurrently.
+class DynamicsModel final : public DynamicsPredictor {
+ public:
+  static absl::StatusOr<DynamicsModel> Create(DynamicsModelOptions options);
+
+  int state_dim() const override;
+  int input_dim() const override;
+
+  // Appends transitions (rows of the three matrices). Before the first Refit() the
+  // data is only kept; after it each sample costs O(n^2) (Cholesky row append),
+  // hyperparameters unchanged. INVALID_ARGUMENT on shape mismatch or non-finite
+  // values (nothing is added then).
+  absl::Status AddSamples(const Eigen::MatrixXd& states, const Eigen::MatrixXd& inputs,
+                          const Eigen::MatrixXd& next_states);
+
+  // Refreshes the output standardisation, fits hyperparameters (if enabled,
+  // warm-started from the previous fit) and refactorises: O(n^3) per output.
+  // FAILED_PRECONDITION with fewer than 2 samples.
+  absl::StatusOr<FitSummary> Refit();
+
+  int sample_count() const;
+  // Samples added since the last Refit().
+  int samples_since_fit() const;
+  // True once Refit() succeeded: Predict() is valid.
+  bool fitted() const;
+
+  // See DynamicsPredictor. Requires fitted(). Costs O(m n^2) per output
+  // (O(m n (n + z_dim)) with Jacobians).
+  void Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean, Eigen::MatrixXd* variance,
+               std::vector<Eigen::MatrixXd>* mean_jacobians,
+               std::vector<Eigen::MatrixXd>* variance_jacobians) const override;
+
+  // Noise variance of each output's target (data units), for "latent + noise".
+  Eigen::VectorXd noise_variances() const;
+  // Per output, in data units; empty before the first Refit().
+  std::vector<Hyperparameters> hyperparameters() const;
+  std::vector<double> log_marginal_likelihoods() const;
+
+  DynamicsModel(DynamicsModel&&) noexcept;
+  DynamicsModel& operator=(DynamicsModel&&) noexcept;
+  ~DynamicsModel() override;
+
+ private:
+  struct State;
+  explicit DynamicsModel(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace excite::gp
+
+#endif  // EXCITE_SERVER_GP_DYNAMICS_MODEL_H_
