@@ -1,0 +1,62 @@
+#include "server/plan/ipopt_solve.h"
+
+#include <IpIpoptApplication.hpp>
+#include <IpJournalist.hpp>
+#include <exception>
+#include <sstream>
+
+namespace excite::plan {
+
+std::mutex& IpoptMutex() {
+  static std::mutex* const mutex = new std::mutex;
+  return *mutex;
+}
+
+IpoptOutcome SolveTnlp(const Ipopt::SmartPtr<Ipopt::TNLP>& nlp,
+                       const IpoptSettings& settings) {
+  IpoptOutcome outcome;
+  std::ostringstream captured;
+  std::lock_guard<std::mutex> lock(IpoptMutex());
+  try {
+    Ipopt::SmartPtr<Ipopt::IpoptApplication> app = new Ipopt::IpoptApplication();
+    Ipopt::SmartPtr<Ipopt::OptionsList> options = app->Options();
+    bool ok = true;
+    ok &= options->SetStringValue("option_file_name", "");
+    ok &= options->SetStringValue("sb", "yes");
+    ok &= options->SetIntegerValue("print_level", 0);
+    ok &= options->SetStringValue("hessian_approximation", "limited-memory");
+    ok &= options->SetIntegerValue("max_iter", settings.max_iterations);
+    ok &= options->SetNumericValue("tol", settings.tolerance);
+    for (const auto& [name, value] : settings.string_options) {
+      ok &= options->SetStringValue(name, value);
+    }
+    for (const auto& [name, value] : settings.integer_options) {
+      ok &= options->SetIntegerValue(name, value);
+    }
+    for (const auto& [name, value] : settings.numeric_options) {
+      ok &= options->SetNumericValue(name, value);
+    }
+    outcome.options_accepted = ok;
+    if (settings.log != nullptr) {
+      Ipopt::SmartPtr<Ipopt::StreamJournal> journal = new Ipopt::StreamJournal(
+          "excite_capture", static_cast<Ipopt::EJournalLevel>(settings.log_level));
+      journal->SetOutputStream(&captured);
+      app->Jnlst()->AddJournal(Ipopt::GetRawPtr(journal));
+    }
+    // An empty stream: Initialize() must not look for ipopt.opt in the cwd.
+    std::istringstream no_option_file;
+    outcome.status = app->Initialize(no_option_file);
+    if (outcome.status == Ipopt::Solve_Succeeded) {
+      outcome.status = app->OptimizeTNLP(nlp);
+    }
+    app->Jnlst()->FlushBuffer();
+  } catch (const std::exception&) {
+    outcome.status = Ipopt::NonIpopt_Exception_Thrown;
+  } catch (...) {
+    outcome.status = Ipopt::NonIpopt_Exception_Thrown;
+  }
+  if (settings.log != nullptr) settings.log->append(captured.str());
+  return outcome;
+}
+
+}  // namespace excite::plan

@@ -1,0 +1,45 @@
+#ifndef EXCITE_SERVER_PLAN_IPOPT_SOLVE_H_
+#define EXCITE_SERVER_PLAN_IPOPT_SOLVE_H_
+
+#include <IpTNLP.hpp>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace excite::plan {
+
+// The one process-wide lock held across every IpoptApplication's create,
+// Initialize, OptimizeTNLP and destroy: MUMPS in Ipopt 3.11 is not thread-safe.
+// SolveTnlp() takes it; code that drives Ipopt itself must take it too.
+std::mutex& IpoptMutex();
+
+// Options of one Ipopt solve. Everything is passed in code: no ipopt.opt is read,
+// nothing is printed (print_level 0, no banner) unless `log` asks for it.
+struct IpoptSettings {
+  int max_iterations = 100;  // max_iter
+  double tolerance = 1e-4;   // tol
+  // Applied after the defaults above and below (e.g. derivative_test).
+  std::vector<std::pair<std::string, std::string>> string_options;
+  std::vector<std::pair<std::string, int>> integer_options;
+  std::vector<std::pair<std::string, double>> numeric_options;
+  // If not null, Ipopt's output up to `log_level` (an Ipopt::EJournalLevel,
+  // 0..12; 2 = warnings, 3 = summary) is appended here.
+  std::string* log = nullptr;
+  int log_level = 3;
+};
+
+struct IpoptOutcome {
+  Ipopt::ApplicationReturnStatus status = Ipopt::Internal_Error;
+  bool options_accepted = true;  // false if Ipopt refused an option
+};
+
+// Creates an IpoptApplication, sets `settings` (hessian_approximation =
+// limited-memory), solves `nlp` and destroys the application, all under
+// IpoptMutex(). Never throws: exceptions become NonIpopt_Exception_Thrown.
+IpoptOutcome SolveTnlp(const Ipopt::SmartPtr<Ipopt::TNLP>& nlp,
+                       const IpoptSettings& settings);
+
+}  // namespace excite::plan
+
+#endif  // EXCITE_SERVER_PLAN_IPOPT_SOLVE_H_

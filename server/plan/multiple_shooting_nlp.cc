@@ -1,0 +1,257 @@
+#include "server/plan/multiple_shooting_nlp.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "server/plan/entropy_objective.h"
+
+namespace excite::plan {
+namespace {
+
+// Ipopt treats |bound| >= 1e19 as infinite (nlp_lower/upper_bound_inf).
+constexpr double kInfinity = 2e19;
+
+}  // namespace
+
+MultipleShootingNlp::MultipleShootingNlp(const gp::DynamicsPredictor& model,
+                                         const Eigen::VectorXd& x0,
+                                         const Eigen::VectorXd& input_lower,
+                                         const Eigen::VectorXd& input_upper,
+                                         const Eigen::MatrixXd& initial_inputs,
+                                         const Eigen::MatrixXd& initial_states,
+                                         StopFn stop, double feasibility_tolerance)
+    : model_(model),
+      dx_(model.state_dim()),
+      du_(model.input_dim()),
+      horizon_(static_cast<int>(initial_inputs.rows())),
+      x0_(x0),
+      lower_(input_lower),
+      upper_(input_upper),
+      initial_inputs_(initial_inputs),
+      initial_states_(initial_states),
+      stop_(std::move(stop)),
+      feasibility_tolerance_(feasibility_tolerance) {}
+
+int MultipleShootingNlp::num_variables() const {
+  return horizon_ * du_ + (horizon_ - 1) * dx_;
+}
+
+int MultipleShootingNlp::num_constraints() const { return (horizon_ - 1) * dx_; }
+
+Eigen::MatrixXd MultipleShootingNlp::InputsOf(const Eigen::VectorXd& w) const {
+  Eigen::MatrixXd inputs(horizon_, du_);
+  for (int i = 0; i < horizon_; ++i) {
+    inputs.row(i) = w.segment(InputOffset(i), du_).transpose();
+  }
+  return inputs;
+}
+
+Eigen::VectorXd MultipleShootingNlp::StartingPoint() const {
+  Eigen::VectorXd w(num_variables());
+  for (int i = 0; i < horizon_; ++i) {
+    w.segment(InputOffset(i), du_) =
+        initial_inputs_.row(i).transpose().cwiseMax(lower_).cwiseMin(upper_);
+  }
+  for (int i = 1; i < horizon_; ++i) {
+    w.segment(StateOffset(i), dx_) = initial_states_.row(i).transpose();
+  }
+  return w;
+}
+
+bool MultipleShootingNlp::get_nlp_info(Ipopt::Index& n, Ipopt::Index& m,
+                                       Ipopt::Index& nnz_jac_g, Ipopt::Index& nnz_h_lag,
+                                       IndexStyleEnum& index_style) {
+  n = num_variables();
+  m = num_constraints();
+  nnz_jac_g = 0;
+  for (int i = 0; i + 1 < horizon_; ++i) {
+    nnz_jac_g += dx_ * (1 + du_ + (i >= 1 ? dx_ : 0));
+  }
+  nnz_h_lag = 0;  // limited-memory Hessian
+  index_style = C_STYLE;
+  return true;
+}
+
+bool MultipleShootingNlp::get_bounds_info(Ipopt::Index n, Ipopt::Number* x_l,
+                                          Ipopt::Number* x_u, Ipopt::Index m,
+                                          Ipopt::Number* g_l, Ipopt::Number* g_u) {
+  if (n != num_variables() || m != num_constraints()) return false;
+  for (int i = 0; i < horizon_; ++i) {
+    for (int l = 0; l < du_; ++l) {
+      x_l[InputOffset(i) + l] = lower_(l);
+      x_u[InputOffset(i) + l] = upper_(l);
+    }
+  }
+  for (int k = horizon_ * du_; k < n; ++k) {
+    x_l[k] = -kInfinity;
+    x_u[k] = kInfinity;
+  }
+  std::fill(g_l, g_l + m, 0.0);
+  std::fill(g_u, g_u + m, 0.0);
+  return true;
+}
+
+bool MultipleShootingNlp::get_starting_point(Ipopt::Index n, bool init_x,
+                                             Ipopt::Number* x, bool init_z,
+                                             Ipopt::Number* /*z_L*/,
+                                             Ipopt::Number* /*z_U*/, Ipopt::Index /*m*/,
+                                             bool init_lambda,
+                                             Ipopt::Number* /*lambda*/) {
+  if (n != num_variables() || init_z || init_lambda) return false;
+  if (init_x) Eigen::Map<Eigen::VectorXd>(x, n) = StartingPoint();
+  return true;
+}
+
+bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
+  const int n = num_variables();
+  const Eigen::Map<const Eigen::VectorXd> w(w_ptr, n);
+  if (cache_valid_ && (!new_x || w == cached_w_)) return cache_finite_;
+  cached_w_ = w;
+  cache_valid_ = true;
+  cache_finite_ = false;
+  ++evaluations_;
+
+  const int zd = dx_ + du_;
+  z_.resize(horizon_, zd);
+  for (int i = 0; i < horizon_; ++i) {
+    if (i == 0) {
+      z_.row(i).head(dx_) = x0_.transpose();
+    } else {
+      z_.row(i).head(dx_) = w.segment(StateOffset(i), dx_).transpose();
+    }
+    z_.row(i).tail(du_) = w.segment(InputOffset(i), du_).transpose();
+  }
+  model_.Predict(z_, &mean_, &variance_, &mean_jacobians_, &variance_jacobians_);
+  if (mean_.rows() != horizon_ || variance_.rows() != horizon_ ||
+      static_cast<int>(mean_jacobians_.size()) != horizon_ ||
+      static_cast<int>(variance_jacobians_.size()) != horizon_ || !mean_.allFinite() ||
+      !variance_.allFinite()) {
+    return false;
+  }
+
+  const double entropy = Entropy(variance_);
+  objective_ = -entropy;
+  gradient_.setZero(n);
+  for (int i = 0; i < horizon_; ++i) {
+    if (!variance_jacobians_[i].allFinite()) return false;
+    const Eigen::VectorXd dh =
+        EntropyGradient(variance_.row(i).transpose(), variance_jacobians_[i]);
+    gradient_.segment(InputOffset(i), du_) -= dh.tail(du_);
+    if (i >= 1) gradient_.segment(StateOffset(i), dx_) -= dh.head(dx_);
+  }
+
+  const int m = num_constraints();
+  constraints_.resize(m);
+  for (int i = 0; i + 1 < horizon_; ++i) {
+    constraints_.segment(i * dx_, dx_) =
+        w.segment(StateOffset(i + 1), dx_) - mean_.row(i).transpose();
+  }
+
+  // Values in the order of the structure written by eval_jac_g.
+  std::vector<double> values;
+  values.reserve(static_cast<size_t>(m) * (1 + du_ + dx_));
+  for (int i = 0; i + 1 < horizon_; ++i) {
+    const Eigen::MatrixXd& jm = mean_jacobians_[i];
+    if (!jm.allFinite()) return false;
+    for (int r = 0; r < dx_; ++r) {
+      values.push_back(1.0);
+      if (i >= 1) {
+        for (int l = 0; l < dx_; ++l) values.push_back(-jm(r, l));
+      }
+      for (int l = 0; l < du_; ++l) values.push_back(-jm(r, dx_ + l));
+    }
+  }
+  jacobian_ = Eigen::Map<const Eigen::VectorXd>(values.data(),
+                                                static_cast<Eigen::Index>(values.size()));
+  cache_finite_ = true;
+
+  const double violation = m > 0 ? constraints_.cwiseAbs().maxCoeff() : 0.0;
+  if (violation <= feasibility_tolerance_ && entropy > best_feasible_entropy_) {
+    best_feasible_entropy_ = entropy;
+    best_feasible_ = w;
+  }
+  return true;
+}
+
+bool MultipleShootingNlp::eval_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
+                                 Ipopt::Number& obj_value) {
+  if (n != num_variables() || !Evaluate(x, new_x)) return false;
+  obj_value = objective_;
+  return true;
+}
+
+bool MultipleShootingNlp::eval_grad_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
+                                      Ipopt::Number* grad_f) {
+  if (n != num_variables() || !Evaluate(x, new_x)) return false;
+  Eigen::Map<Eigen::VectorXd>(grad_f, n) = gradient_;
+  return true;
+}
+
+bool MultipleShootingNlp::eval_g(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
+                                 Ipopt::Index m, Ipopt::Number* g) {
+  if (n != num_variables() || m != num_constraints()) return false;
+  if (m == 0) return true;
+  if (!Evaluate(x, new_x)) return false;
+  Eigen::Map<Eigen::VectorXd>(g, m) = constraints_;
+  return true;
+}
+
+bool MultipleShootingNlp::eval_jac_g(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
+                                     Ipopt::Index m, Ipopt::Index nele_jac,
+                                     Ipopt::Index* iRow, Ipopt::Index* jCol,
+                                     Ipopt::Number* values) {
+  if (n != num_variables() || m != num_constraints()) return false;
+  if (values == nullptr) {
+    Ipopt::Index k = 0;
+    for (int i = 0; i + 1 < horizon_; ++i) {
+      for (int r = 0; r < dx_; ++r) {
+        const int row = i * dx_ + r;
+        iRow[k] = row;
+        jCol[k++] = StateOffset(i + 1) + r;
+        if (i >= 1) {
+          for (int l = 0; l < dx_; ++l) {
+            iRow[k] = row;
+            jCol[k++] = StateOffset(i) + l;
+          }
+        }
+        for (int l = 0; l < du_; ++l) {
+          iRow[k] = row;
+          jCol[k++] = InputOffset(i) + l;
+        }
+      }
+    }
+    return k == nele_jac;
+  }
+  if (m == 0) return true;
+  if (!Evaluate(x, new_x) || jacobian_.size() != nele_jac) return false;
+  Eigen::Map<Eigen::VectorXd>(values, nele_jac) = jacobian_;
+  return true;
+}
+
+bool MultipleShootingNlp::intermediate_callback(
+    Ipopt::AlgorithmMode /*mode*/, Ipopt::Index iter, Ipopt::Number /*obj_value*/,
+    Ipopt::Number /*inf_pr*/, Ipopt::Number /*inf_du*/, Ipopt::Number /*mu*/,
+    Ipopt::Number /*d_norm*/, Ipopt::Number /*regularization_size*/,
+    Ipopt::Number /*alpha_du*/, Ipopt::Number /*alpha_pr*/, Ipopt::Index /*ls_trials*/,
+    const Ipopt::IpoptData* /*ip_data*/, Ipopt::IpoptCalculatedQuantities* /*ip_cq*/) {
+  iterations_ = std::max<int>(iterations_, iter);
+  if (stop_ && stop_()) {
+    stopped_ = true;
+    return false;
+  }
+  return true;
+}
+
+void MultipleShootingNlp::finalize_solution(
+    Ipopt::SolverReturn /*status*/, Ipopt::Index n, const Ipopt::Number* x,
+    const Ipopt::Number* /*z_L*/, const Ipopt::Number* /*z_U*/, Ipopt::Index /*m*/,
+    const Ipopt::Number* /*g*/, const Ipopt::Number* /*lambda*/,
+    Ipopt::Number /*obj_value*/, const Ipopt::IpoptData* /*ip_data*/,
+    Ipopt::IpoptCalculatedQuantities* /*ip_cq*/) {
+  if (n == num_variables() && x != nullptr) {
+    final_point_ = Eigen::Map<const Eigen::VectorXd>(x, n);
+  }
+}
+
+}  // namespace excite::plan

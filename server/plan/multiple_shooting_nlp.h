@@ -1,0 +1,132 @@
+#ifndef EXCITE_SERVER_PLAN_MULTIPLE_SHOOTING_NLP_H_
+#define EXCITE_SERVER_PLAN_MULTIPLE_SHOOTING_NLP_H_
+
+#include <Eigen/Dense>
+#include <IpTNLP.hpp>
+#include <functional>
+#include <limits>
+#include <vector>
+
+#include "server/gp/dynamics_predictor.h"
+
+namespace excite::plan {
+
+// The paper's problem (trajopt_optim) as an Ipopt NLP by direct multiple shooting:
+//   min_w  -sum_{i=0}^{M-1} H(x_i, u_i)
+//   s.t.   x_{i+1} - mean(x_i, u_i) = 0,  i = 0..M-2;   lower <= u_i <= upper,
+// with x_0 given. Decision vector w = (u_0, .., u_{M-1}, x_1, .., x_{M-1}), i.e.
+// n = M du + (M-1) dx variables and (M-1) dx constraints. First derivatives are
+// exact: all values and Jacobians at an iterate come from ONE batched
+// DynamicsPredictor::Predict call of M points (cached per iterate). No Hessian:
+// use hessian_approximation = limited-memory. The model must outlive the NLP.
+// Keeps the best feasible point it evaluated (max |g| <= feasibility_tolerance),
+// so a cut-short solve still has something good.
+class MultipleShootingNlp final : public Ipopt::TNLP {
+ public:
+  // Polled once per Ipopt iteration; true stops the solve (User_Requested_Stop).
+  using StopFn = std::function<bool()>;
+
+  // initial_inputs: M x du (clipped into the bounds); initial_states: M x dx, row
+  // 0 ignored (x_0 is `x0`), rows 1.. are the initial x_1..x_{M-1}.
+  MultipleShootingNlp(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
+                      const Eigen::VectorXd& input_lower,
+                      const Eigen::VectorXd& input_upper,
+                      const Eigen::MatrixXd& initial_inputs,
+                      const Eigen::MatrixXd& initial_states, StopFn stop = nullptr,
+                      double feasibility_tolerance = 1e-6);
+
+  int horizon() const { return horizon_; }
+  int num_variables() const;
+  int num_constraints() const;
+  // Offsets in w of u_i (0 <= i < M) and of x_i (1 <= i < M).
+  int InputOffset(int i) const { return i * du_; }
+  int StateOffset(int i) const { return horizon_ * du_ + (i - 1) * dx_; }
+  // M x du inputs contained in a decision vector.
+  Eigen::MatrixXd InputsOf(const Eigen::VectorXd& w) const;
+  // The decision vector of the initial guess.
+  Eigen::VectorXd StartingPoint() const;
+
+  // Best feasible point evaluated so far (empty if none) and its entropy sum.
+  const Eigen::VectorXd& best_feasible() const { return best_feasible_; }
+  double best_feasible_entropy() const { return best_feasible_entropy_; }
+  // The point passed to finalize_solution (empty if never finalised).
+  const Eigen::VectorXd& final_point() const { return final_point_; }
+  int iterations() const { return iterations_; }
+  // True if StopFn ended the solve.
+  bool stopped() const { return stopped_; }
+  // Number of Predict calls (new iterates evaluated).
+  int evaluations() const { return evaluations_; }
+
+  // Ipopt::TNLP.
+  bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac_g,
+                    Ipopt::Index& nnz_h_lag, IndexStyleEnum& index_style) override;
+  bool get_bounds_info(Ipopt::Index n, Ipopt::Number* x_l, Ipopt::Number* x_u,
+                       Ipopt::Index m, Ipopt::Number* g_l, Ipopt::Number* g_u) override;
+  bool get_starting_point(Ipopt::Index n, bool init_x, Ipopt::Number* x, bool init_z,
+                          Ipopt::Number* z_L, Ipopt::Number* z_U, Ipopt::Index m,
+                          bool init_lambda, Ipopt::Number* lambda) override;
+  bool eval_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
+              Ipopt::Number& obj_value) override;
+  bool eval_grad_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
+                   Ipopt::Number* grad_f) override;
+  bool eval_g(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Index m,
+              Ipopt::Number* g) override;
+  bool eval_jac_g(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Index m,
+                  Ipopt::Index nele_jac, Ipopt::Index* iRow, Ipopt::Index* jCol,
+                  Ipopt::Number* values) override;
+  bool intermediate_callback(Ipopt::AlgorithmMode mode, Ipopt::Index iter,
+                             Ipopt::Number obj_value, Ipopt::Number inf_pr,
+                             Ipopt::Number inf_du, Ipopt::Number mu, Ipopt::Number d_norm,
+                             Ipopt::Number regularization_size, Ipopt::Number alpha_du,
+                             Ipopt::Number alpha_pr, Ipopt::Index ls_trials,
+                             const Ipopt::IpoptData* ip_data,
+                             Ipopt::IpoptCalculatedQuantities* ip_cq) override;
+  void finalize_solution(Ipopt::SolverReturn status, Ipopt::Index n,
+                         const Ipopt::Number* x, const Ipopt::Number* z_L,
+                         const Ipopt::Number* z_U, Ipopt::Index m, const Ipopt::Number* g,
+                         const Ipopt::Number* lambda, Ipopt::Number obj_value,
+                         const Ipopt::IpoptData* ip_data,
+                         Ipopt::IpoptCalculatedQuantities* ip_cq) override;
+
+ private:
+  // Makes the cache hold the values at w (n entries); false if the model
+  // returned non-finite numbers there.
+  bool Evaluate(const Ipopt::Number* w, bool new_x);
+
+  const gp::DynamicsPredictor& model_;
+  const int dx_;
+  const int du_;
+  const int horizon_;
+  const Eigen::VectorXd x0_;
+  const Eigen::VectorXd lower_;
+  const Eigen::VectorXd upper_;
+  Eigen::MatrixXd initial_inputs_;
+  Eigen::MatrixXd initial_states_;
+  StopFn stop_;
+  const double feasibility_tolerance_;
+
+  // Cache of the last evaluated iterate.
+  bool cache_valid_ = false;
+  bool cache_finite_ = false;
+  Eigen::VectorXd cached_w_;
+  double objective_ = 0.0;
+  Eigen::VectorXd gradient_;     // n
+  Eigen::VectorXd constraints_;  // m
+  Eigen::VectorXd jacobian_;     // nnz, in the order of the sparsity structure
+  Eigen::MatrixXd z_;            // M x (dx + du)
+  Eigen::MatrixXd mean_;         // M x dx
+  Eigen::MatrixXd variance_;     // M x dx
+  std::vector<Eigen::MatrixXd> mean_jacobians_;
+  std::vector<Eigen::MatrixXd> variance_jacobians_;
+
+  Eigen::VectorXd best_feasible_;
+  double best_feasible_entropy_ = -std::numeric_limits<double>::infinity();
+  Eigen::VectorXd final_point_;
+  int iterations_ = 0;
+  bool stopped_ = false;
+  int evaluations_ = 0;
+};
+
+}  // namespace excite::plan
+
+#endif  // EXCITE_SERVER_PLAN_MULTIPLE_SHOOTING_NLP_H_
