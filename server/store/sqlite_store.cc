@@ -1,0 +1,388 @@
+#include "server/store/sqlite_store.h"
+
+#include <fcntl.h>
+#include <sqlite3.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "server/store/sqlite_statement.h"
+
+namespace excite::store {
+namespace {
+
+constexpr char kCreateTables[] = R"sql(
+CREATE TABLE schema_version (version INTEGER NOT NULL);
+CREATE TABLE sessions (
+  id TEXT PRIMARY KEY NOT NULL,
+  config BLOB NOT NULL,
+  created_unix_ms INTEGER NOT NULL,
+  hyperparameters BLOB NOT NULL DEFAULT x'',
+  model_version INTEGER NOT NULL DEFAULT 0
+);
+CREATE TABLE samples (
+  session_id TEXT NOT NULL,
+  sequence INTEGER NOT NULL,
+  state BLOB NOT NULL,
+  input BLOB NOT NULL,
+  next_state BLOB NOT NULL,
+  timestamp_s REAL NOT NULL,
+  PRIMARY KEY (session_id, sequence)
+) WITHOUT ROWID;
+)sql";
+
+// Holds an exclusive flock on <data_dir>/excite.lock for the store's lifetime so
+// that two servers never share one data directory.
+absl::StatusOr<int> LockDataDir(const std::filesystem::path& dir) {
+  const std::string lock_path = (dir / "excite.lock").string();
+  const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("cannot open ", lock_path, ": ", std::strerror(errno)));
+  }
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    ::close(fd);
+    if (err == EWOULDBLOCK) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "data directory ", dir.string(), " is in use by another excite-server (",
+          lock_path, " is locked)"));
+    }
+    return absl::FailedPreconditionError(
+        absl::StrCat("cannot lock ", lock_path, ": ", std::strerror(err)));
+  }
+  return fd;
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(
+    const std::string& data_dir) {
+  if (data_dir.empty()) {
+    return absl::InvalidArgumentError("the data directory must not be empty");
+  }
+  const std::filesystem::path dir(data_dir);
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("cannot create data directory ", data_dir, ": ", ec.message()));
+  }
+  absl::StatusOr<int> lock_fd = LockDataDir(dir);
+  if (!lock_fd.ok()) return lock_fd.status();
+
+  const std::string path = (dir / "excite.db").string();
+  sqlite3* db = nullptr;
+  const int rc = sqlite3_open_v2(
+      path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
+      nullptr);
+  if (rc != SQLITE_OK) {
+    absl::Status status = SqliteError(db, rc, absl::StrCat("open ", path));
+    sqlite3_close(db);
+    ::close(*lock_fd);
+    return status;
+  }
+  sqlite3_extended_result_codes(db, 1);
+  std::unique_ptr<SqliteStore> store(new SqliteStore(db, path, *lock_fd));
+  absl::MutexLock lock(&store->mu_);
+  if (absl::Status s = SqliteError(db, sqlite3_busy_timeout(db, 5000), "busy_timeout");
+      !s.ok()) {
+    return s;
+  }
+  // journal_mode returns the mode actually in effect: insist on WAL.
+  {
+    absl::StatusOr<SqliteStatement> stmt =
+        SqliteStatement::Prepare(db, "PRAGMA journal_mode=WAL");
+    if (!stmt.ok()) return stmt.status();
+    absl::StatusOr<bool> row = stmt->Step();
+    if (!row.ok()) return row.status();
+    if (!*row || stmt->ColumnText(0) != "wal") {
+      return absl::FailedPreconditionError(
+          absl::StrCat("sqlite: ", path, " could not be switched to WAL mode"));
+    }
+  }
+  if (absl::Status s = store->Exec("PRAGMA synchronous=FULL"); !s.ok()) return s;
+  if (absl::Status s = store->InitSchema(); !s.ok()) {
+    return absl::Status(s.code(), absl::StrCat(path, ": ", s.message()));
+  }
+  return store;
+}
+
+SqliteStore::SqliteStore(sqlite3* db, std::string path, int lock_fd)
+    : db_(db), path_(std::move(path)), lock_fd_(lock_fd) {}
+
+SqliteStore::~SqliteStore() {
+  {
+    absl::MutexLock lock(&mu_);
+    sqlite3_close_v2(db_);
+    db_ = nullptr;
+  }
+  if (lock_fd_ >= 0) ::close(lock_fd_);  // releases the flock
+}
+
+absl::Status SqliteStore::Exec(const char* sql) {
+  char* error = nullptr;
+  const int rc = sqlite3_exec(db_, sql, nullptr, nullptr, &error);
+  if (rc == SQLITE_OK) return absl::OkStatus();
+  std::string message = error != nullptr ? error : sqlite3_errstr(rc);
+  sqlite3_free(error);
+  absl::Status status = SqliteError(db_, rc, sql);
+  return absl::Status(status.code(), absl::StrCat("sqlite: \"", sql, "\": ", message));
+}
+
+absl::Status SqliteStore::Rollback() {
+  if (sqlite3_get_autocommit(db_) != 0) return absl::OkStatus();  // nothing open
+  return Exec("ROLLBACK");
+}
+
+absl::Status SqliteStore::InitSchema() {
+  if (absl::Status s = Exec("BEGIN IMMEDIATE"); !s.ok()) return s;
+  absl::Status status = [&]() -> absl::Status {
+    absl::StatusOr<SqliteStatement> tables = SqliteStatement::Prepare(
+        db_, "SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name");
+    if (!tables.ok()) return tables.status();
+    bool has_version_table = false;
+    int other_tables = 0;
+    while (true) {
+      absl::StatusOr<bool> row = tables->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      if (tables->ColumnText(0) == "schema_version") {
+        has_version_table = true;
+      } else {
+        ++other_tables;
+      }
+    }
+    if (!has_version_table) {
+      if (other_tables > 0) {
+        return absl::FailedPreconditionError(
+            "the database has tables but no schema_version table: it was not "
+            "written by excite-server; refusing to use it");
+      }
+      if (absl::Status s = Exec(kCreateTables); !s.ok()) return s;
+      absl::StatusOr<SqliteStatement> insert = SqliteStatement::Prepare(
+          db_, "INSERT INTO schema_version (version) VALUES (?)");
+      if (!insert.ok()) return insert.status();
+      if (absl::Status s = insert->BindInt64(1, kSchemaVersion); !s.ok()) return s;
+      return insert->Step().status();
+    }
+    absl::StatusOr<SqliteStatement> select =
+        SqliteStatement::Prepare(db_, "SELECT version FROM schema_version");
+    if (!select.ok()) return select.status();
+    std::vector<int64_t> versions;
+    while (true) {
+      absl::StatusOr<bool> row = select->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      versions.push_back(select->ColumnInt64(0));
+    }
+    if (versions.size() != 1) {
+      return absl::DataLossError(absl::StrCat("schema_version has ", versions.size(),
+                                              " rows; expected exactly 1"));
+    }
+    if (versions[0] > kSchemaVersion) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "schema version ", versions[0],
+          " is newer than the version this "
+          "excite-server understands (",
+          kSchemaVersion,
+          "): it was written by a newer excite-server; upgrade excite-server or use "
+          "another --data_dir"));
+    }
+    if (versions[0] != kSchemaVersion) {
+      return absl::FailedPreconditionError(absl::StrCat("unknown schema version ",
+                                                        versions[0],
+                                                        " (this excite-server "
+                                                        "understands version ",
+                                                        kSchemaVersion, ")"));
+    }
+    return absl::OkStatus();
+  }();
+  if (!status.ok()) {
+    Rollback().IgnoreError();  // the original error is the one to report
+    return status;
+  }
+  return Exec("COMMIT");
+}
+
+absl::StatusOr<bool> SqliteStore::SessionExists(const std::string& id) {
+  absl::StatusOr<SqliteStatement> stmt =
+      SqliteStatement::Prepare(db_, "SELECT 1 FROM sessions WHERE id = ?");
+  if (!stmt.ok()) return stmt.status();
+  if (absl::Status s = stmt->BindText(1, id); !s.ok()) return s;
+  return stmt->Step();
+}
+
+absl::Status SqliteStore::CreateSession(const SessionRecord& session) {
+  absl::MutexLock lock(&mu_);
+  absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
+      db_,
+      "INSERT INTO sessions (id, config, created_unix_ms, hyperparameters, "
+      "model_version) VALUES (?, ?, ?, ?, ?)");
+  if (!stmt.ok()) return stmt.status();
+  if (absl::Status s = stmt->BindText(1, session.id); !s.ok()) return s;
+  if (absl::Status s = stmt->BindBlob(2, session.config); !s.ok()) return s;
+  if (absl::Status s = stmt->BindInt64(3, session.created_unix_ms); !s.ok()) return s;
+  if (absl::Status s = stmt->BindBlob(4, session.hyperparameters); !s.ok()) return s;
+  if (absl::Status s = stmt->BindInt64(5, session.model_version); !s.ok()) return s;
+  absl::Status status = stmt->Step().status();
+  if (absl::IsAlreadyExists(status)) {
+    return absl::AlreadyExistsError(
+        absl::StrCat("session sessions/", session.id, " already exists"));
+  }
+  return status;
+}
+
+absl::Status SqliteStore::DeleteSession(const std::string& id) {
+  absl::MutexLock lock(&mu_);
+  if (absl::Status s = Exec("BEGIN IMMEDIATE"); !s.ok()) return s;
+  absl::Status status = [&]() -> absl::Status {
+    absl::StatusOr<SqliteStatement> samples =
+        SqliteStatement::Prepare(db_, "DELETE FROM samples WHERE session_id = ?");
+    if (!samples.ok()) return samples.status();
+    if (absl::Status s = samples->BindText(1, id); !s.ok()) return s;
+    if (absl::Status s = samples->Step().status(); !s.ok()) return s;
+    absl::StatusOr<SqliteStatement> session =
+        SqliteStatement::Prepare(db_, "DELETE FROM sessions WHERE id = ?");
+    if (!session.ok()) return session.status();
+    if (absl::Status s = session->BindText(1, id); !s.ok()) return s;
+    if (absl::Status s = session->Step().status(); !s.ok()) return s;
+    if (sqlite3_changes(db_) == 0) {
+      return absl::NotFoundError(absl::StrCat("session sessions/", id, " not found"));
+    }
+    return absl::OkStatus();
+  }();
+  if (!status.ok()) {
+    Rollback().IgnoreError();
+    return status;
+  }
+  return Exec("COMMIT");
+}
+
+absl::StatusOr<std::vector<SessionRecord>> SqliteStore::LoadSessions() {
+  absl::MutexLock lock(&mu_);
+  absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
+      db_,
+      "SELECT id, config, created_unix_ms, hyperparameters, model_version FROM "
+      "sessions ORDER BY id");
+  if (!stmt.ok()) return stmt.status();
+  std::vector<SessionRecord> sessions;
+  while (true) {
+    absl::StatusOr<bool> row = stmt->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    SessionRecord record;
+    record.id = stmt->ColumnText(0);
+    record.config = stmt->ColumnBlob(1);
+    record.created_unix_ms = stmt->ColumnInt64(2);
+    record.hyperparameters = stmt->ColumnBlob(3);
+    record.model_version = stmt->ColumnInt64(4);
+    sessions.push_back(std::move(record));
+  }
+  return sessions;
+}
+
+absl::StatusOr<std::vector<SampleRecord>> SqliteStore::LoadSamples(
+    const std::string& session_id) {
+  absl::MutexLock lock(&mu_);
+  absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
+      db_,
+      "SELECT sequence, state, input, next_state, timestamp_s FROM samples WHERE "
+      "session_id = ? ORDER BY sequence");
+  if (!stmt.ok()) return stmt.status();
+  if (absl::Status s = stmt->BindText(1, session_id); !s.ok()) return s;
+  std::vector<SampleRecord> samples;
+  while (true) {
+    absl::StatusOr<bool> row = stmt->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    SampleRecord record;
+    record.sequence = stmt->ColumnInt64(0);
+    absl::StatusOr<std::vector<double>> state = stmt->ColumnDoubles(1);
+    absl::StatusOr<std::vector<double>> input = stmt->ColumnDoubles(2);
+    absl::StatusOr<std::vector<double>> next_state = stmt->ColumnDoubles(3);
+    for (const absl::StatusOr<std::vector<double>>* v : {&state, &input, &next_state}) {
+      if (!v->ok()) {
+        return absl::DataLossError(absl::StrCat("session ", session_id, " sample ",
+                                                record.sequence, ": ",
+                                                v->status().message()));
+      }
+    }
+    record.state = *std::move(state);
+    record.input = *std::move(input);
+    record.next_state = *std::move(next_state);
+    record.timestamp_s = stmt->ColumnDouble(4);
+    samples.push_back(std::move(record));
+  }
+  return samples;
+}
+
+absl::StatusOr<InsertResult> SqliteStore::InsertSamples(
+    const std::string& session_id, const std::vector<SampleRecord>& batch) {
+  absl::MutexLock lock(&mu_);
+  if (absl::Status s = Exec("BEGIN IMMEDIATE"); !s.ok()) return s;
+  InsertResult result;
+  absl::Status status = [&]() -> absl::Status {
+    absl::StatusOr<bool> exists = SessionExists(session_id);
+    if (!exists.ok()) return exists.status();
+    if (!*exists) {
+      return absl::NotFoundError(
+          absl::StrCat("session sessions/", session_id, " not found"));
+    }
+    absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
+        db_,
+        "INSERT OR IGNORE INTO samples (session_id, sequence, state, input, "
+        "next_state, timestamp_s) VALUES (?, ?, ?, ?, ?, ?)");
+    if (!stmt.ok()) return stmt.status();
+    result.stored.reserve(batch.size());
+    for (const SampleRecord& sample : batch) {
+      if (absl::Status s = stmt->BindText(1, session_id); !s.ok()) return s;
+      if (absl::Status s = stmt->BindInt64(2, sample.sequence); !s.ok()) return s;
+      if (absl::Status s = stmt->BindDoubles(3, sample.state); !s.ok()) return s;
+      if (absl::Status s = stmt->BindDoubles(4, sample.input); !s.ok()) return s;
+      if (absl::Status s = stmt->BindDoubles(5, sample.next_state); !s.ok()) return s;
+      if (absl::Status s = stmt->BindDouble(6, sample.timestamp_s); !s.ok()) return s;
+      if (absl::Status s = stmt->Step().status(); !s.ok()) return s;
+      const bool stored = sqlite3_changes(db_) > 0;
+      result.stored.push_back(stored);
+      ++(stored ? result.stored_count : result.duplicate_count);
+      if (absl::Status s = stmt->Reset(); !s.ok()) return s;
+    }
+    return absl::OkStatus();
+  }();
+  if (!status.ok()) {
+    Rollback().IgnoreError();
+    return status;
+  }
+  if (absl::Status s = Exec("COMMIT"); !s.ok()) {
+    Rollback().IgnoreError();
+    return s;
+  }
+  return result;
+}
+
+absl::Status SqliteStore::SaveModelState(const std::string& session_id,
+                                         const std::string& hyperparameters,
+                                         int64_t model_version) {
+  absl::MutexLock lock(&mu_);
+  absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
+      db_, "UPDATE sessions SET hyperparameters = ?, model_version = ? WHERE id = ?");
+  if (!stmt.ok()) return stmt.status();
+  if (absl::Status s = stmt->BindBlob(1, hyperparameters); !s.ok()) return s;
+  if (absl::Status s = stmt->BindInt64(2, model_version); !s.ok()) return s;
+  if (absl::Status s = stmt->BindText(3, session_id); !s.ok()) return s;
+  if (absl::Status s = stmt->Step().status(); !s.ok()) return s;
+  if (sqlite3_changes(db_) == 0) {
+    return absl::NotFoundError(
+        absl::StrCat("session sessions/", session_id, " not found"));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace excite::store

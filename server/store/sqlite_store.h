@@ -1,0 +1,88 @@
+#ifndef EXCITE_SERVER_STORE_SQLITE_STORE_H_
+#define EXCITE_SERVER_STORE_SQLITE_STORE_H_
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
+#include "server/store/store_records.h"
+
+struct sqlite3;
+
+namespace excite::store {
+
+// The durable store of sessions and their samples: one SQLite database
+// `<data_dir>/excite.db` in WAL mode with synchronous=FULL, so every method that
+// writes returns only after its transaction is committed to disk.
+//
+// Tables: schema_version(version), sessions(id, config, created_unix_ms,
+// hyperparameters, model_version), samples(session_id, sequence, state, input,
+// next_state, timestamp_s) with PRIMARY KEY(session_id, sequence). Vectors of
+// doubles are stored as blobs of IEEE-754 little-endian doubles.
+//
+// Thread-safe: one connection behind a mutex (writes are serialised anyway by
+// SQLite). Every SQLite error becomes an absl::Status carrying SQLite's message.
+class SqliteStore {
+ public:
+  // The schema version this build reads and writes.
+  static constexpr int kSchemaVersion = 1;
+
+  // Creates `data_dir` (and parents) if needed, opens or creates excite.db and its
+  // schema. FAILED_PRECONDITION if the database has a schema version this build
+  // does not know (e.g. written by a newer excite-server) or if another store
+  // (in this or another process) has the directory open: an exclusive flock on
+  // <data_dir>/excite.lock is held for the store's lifetime.
+  static absl::StatusOr<std::unique_ptr<SqliteStore>> Open(const std::string& data_dir);
+
+  ~SqliteStore();
+  SqliteStore(const SqliteStore&) = delete;
+  SqliteStore& operator=(const SqliteStore&) = delete;
+
+  // Path of the database file.
+  const std::string& path() const { return path_; }
+
+  // ALREADY_EXISTS if a session with this id is stored.
+  absl::Status CreateSession(const SessionRecord& session);
+  // Removes the session and all its samples in one transaction. NOT_FOUND if
+  // there is no such session.
+  absl::Status DeleteSession(const std::string& id);
+  // All sessions in id order.
+  absl::StatusOr<std::vector<SessionRecord>> LoadSessions();
+  // All samples of one session in sequence order.
+  absl::StatusOr<std::vector<SampleRecord>> LoadSamples(const std::string& session_id);
+
+  // Stores `batch` in ONE transaction with INSERT OR IGNORE: a sample whose
+  // sequence number is already stored for this session is a duplicate and is not
+  // written again. Returns after COMMIT. NOT_FOUND if the session does not exist
+  // (nothing is written then). Cost: O(batch) row inserts plus one fsync.
+  absl::StatusOr<InsertResult> InsertSamples(const std::string& session_id,
+                                             const std::vector<SampleRecord>& batch);
+
+  // Saves the last fitted hyperparameters (opaque bytes) and the model version
+  // they belong to. NOT_FOUND if the session does not exist.
+  absl::Status SaveModelState(const std::string& session_id,
+                              const std::string& hyperparameters, int64_t model_version);
+
+ private:
+  SqliteStore(sqlite3* db, std::string path, int lock_fd);
+
+  absl::Status Exec(const char* sql) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  absl::Status InitSchema() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  absl::StatusOr<bool> SessionExists(const std::string& id)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  absl::Status Rollback() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+
+  absl::Mutex mu_;
+  sqlite3* db_ ABSL_GUARDED_BY(mu_);
+  const std::string path_;
+  const int lock_fd_;  // flock on <data_dir>/excite.lock, held while open
+};
+
+}  // namespace excite::store
+
+#endif  // EXCITE_SERVER_STORE_SQLITE_STORE_H_

@@ -1,0 +1,221 @@
+#include "server/store/sqlite_store.h"
+
+#include <sqlite3.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+#include "tests/service/temp_dir.h"
+
+namespace excite::store {
+namespace {
+
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+
+SampleRecord Sample(int64_t sequence) {
+  SampleRecord s;
+  s.sequence = sequence;
+  s.state = {0.1 * sequence, -1.5};
+  s.input = {2.0 + sequence};
+  s.next_state = {0.25, 1e-300};
+  s.timestamp_s = 1700000000.5 + sequence;
+  return s;
+}
+
+SessionRecord Session(const std::string& id) {
+  SessionRecord r;
+  r.id = id;
+  r.config = std::string("\x08\x02\x10\x01\0bytes", 10);  // arbitrary bytes with a NUL
+  r.created_unix_ms = 1700000000123;
+  return r;
+}
+
+TEST(SqliteStoreTest, OpenCreatesDirectoryAndDatabase) {
+  excite::testing::TempDir tmp;
+  const std::string dir = tmp.path() + "/nested/data";
+  auto store = SqliteStore::Open(dir);
+  ASSERT_TRUE(store.ok()) << store.status();
+  EXPECT_TRUE(std::filesystem::exists(dir + "/excite.db"));
+  EXPECT_EQ((*store)->path(), dir + "/excite.db");
+}
+
+TEST(SqliteStoreTest, DataSurvivesReopen) {
+  excite::testing::TempDir tmp;
+  {
+    auto store = SqliteStore::Open(tmp.path());
+    ASSERT_TRUE(store.ok()) << store.status();
+    ASSERT_TRUE((*store)->CreateSession(Session("b-session")).ok());
+    ASSERT_TRUE((*store)->CreateSession(Session("a-session")).ok());
+    auto inserted =
+        (*store)->InsertSamples("a-session", {Sample(0), Sample(1), Sample(2)});
+    ASSERT_TRUE(inserted.ok()) << inserted.status();
+    ASSERT_TRUE((*store)->SaveModelState("a-session", "hyper", 7).ok());
+  }
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok()) << store.status();
+  auto sessions = (*store)->LoadSessions();
+  ASSERT_TRUE(sessions.ok()) << sessions.status();
+  ASSERT_EQ(sessions->size(), 2u);
+  EXPECT_EQ((*sessions)[0].id, "a-session");  // id order
+  EXPECT_EQ((*sessions)[1].id, "b-session");
+  EXPECT_EQ((*sessions)[0].config, Session("a").config);
+  EXPECT_EQ((*sessions)[0].created_unix_ms, 1700000000123);
+  EXPECT_EQ((*sessions)[0].hyperparameters, "hyper");
+  EXPECT_EQ((*sessions)[0].model_version, 7);
+  EXPECT_EQ((*sessions)[1].hyperparameters, "");
+
+  auto samples = (*store)->LoadSamples("a-session");
+  ASSERT_TRUE(samples.ok()) << samples.status();
+  ASSERT_EQ(samples->size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    const SampleRecord expected = Sample(i);
+    EXPECT_EQ((*samples)[i].sequence, i);
+    EXPECT_EQ((*samples)[i].state, expected.state);  // bit-exact round trip
+    EXPECT_EQ((*samples)[i].input, expected.input);
+    EXPECT_EQ((*samples)[i].next_state, expected.next_state);
+    EXPECT_EQ((*samples)[i].timestamp_s, expected.timestamp_s);
+  }
+  auto none = (*store)->LoadSamples("b-session");
+  ASSERT_TRUE(none.ok());
+  EXPECT_TRUE(none->empty());
+}
+
+TEST(SqliteStoreTest, InsertIsIdempotentPerSequence) {
+  excite::testing::TempDir tmp;
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok());
+  ASSERT_TRUE((*store)->CreateSession(Session("s")).ok());
+  auto first = (*store)->InsertSamples("s", {Sample(0), Sample(1)});
+  ASSERT_TRUE(first.ok());
+  EXPECT_THAT(first->stored, ElementsAre(true, true));
+  EXPECT_EQ(first->stored_count, 2);
+  EXPECT_EQ(first->duplicate_count, 0);
+
+  // A retry overlapping the first batch, with a repeat inside the batch too.
+  SampleRecord changed = Sample(1);
+  changed.state = {99.0, 99.0};
+  auto second = (*store)->InsertSamples("s", {changed, Sample(2), Sample(2)});
+  ASSERT_TRUE(second.ok());
+  EXPECT_THAT(second->stored, ElementsAre(false, true, false));
+  EXPECT_EQ(second->stored_count, 1);
+  EXPECT_EQ(second->duplicate_count, 2);
+
+  auto samples = (*store)->LoadSamples("s");
+  ASSERT_TRUE(samples.ok());
+  ASSERT_EQ(samples->size(), 3u);
+  EXPECT_EQ((*samples)[1].state, Sample(1).state);  // the first write wins
+}
+
+TEST(SqliteStoreTest, SameSequenceInDifferentSessionsIsNotADuplicate) {
+  excite::testing::TempDir tmp;
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok());
+  ASSERT_TRUE((*store)->CreateSession(Session("a")).ok());
+  ASSERT_TRUE((*store)->CreateSession(Session("b")).ok());
+  ASSERT_EQ((*store)->InsertSamples("a", {Sample(5)})->stored_count, 1);
+  ASSERT_EQ((*store)->InsertSamples("b", {Sample(5)})->stored_count, 1);
+}
+
+TEST(SqliteStoreTest, InsertIntoUnknownSessionIsNotFoundAndWritesNothing) {
+  excite::testing::TempDir tmp;
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok());
+  auto result = (*store)->InsertSamples("ghost", {Sample(0)});
+  EXPECT_EQ(result.status().code(), absl::StatusCode::kNotFound);
+  ASSERT_TRUE((*store)->CreateSession(Session("ghost")).ok());
+  EXPECT_TRUE((*store)->LoadSamples("ghost")->empty());
+}
+
+TEST(SqliteStoreTest, CreateTwiceIsAlreadyExists) {
+  excite::testing::TempDir tmp;
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok());
+  ASSERT_TRUE((*store)->CreateSession(Session("s")).ok());
+  absl::Status status = (*store)->CreateSession(Session("s"));
+  EXPECT_EQ(status.code(), absl::StatusCode::kAlreadyExists);
+  EXPECT_THAT(status.message(), HasSubstr("sessions/s"));
+}
+
+TEST(SqliteStoreTest, DeleteRemovesSessionAndSamples) {
+  excite::testing::TempDir tmp;
+  {
+    auto store = SqliteStore::Open(tmp.path());
+    ASSERT_TRUE(store.ok());
+    ASSERT_TRUE((*store)->CreateSession(Session("s")).ok());
+    ASSERT_TRUE((*store)->CreateSession(Session("keep")).ok());
+    ASSERT_TRUE((*store)->InsertSamples("s", {Sample(0), Sample(1)}).ok());
+    ASSERT_TRUE((*store)->InsertSamples("keep", {Sample(0)}).ok());
+    ASSERT_TRUE((*store)->DeleteSession("s").ok());
+    EXPECT_EQ((*store)->DeleteSession("s").code(), absl::StatusCode::kNotFound);
+    EXPECT_EQ((*store)->SaveModelState("s", "h", 1).code(), absl::StatusCode::kNotFound);
+  }
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok());
+  auto sessions = (*store)->LoadSessions();
+  ASSERT_TRUE(sessions.ok());
+  ASSERT_EQ(sessions->size(), 1u);
+  EXPECT_EQ((*sessions)[0].id, "keep");
+  EXPECT_TRUE((*store)->LoadSamples("s")->empty());
+  EXPECT_EQ((*store)->LoadSamples("keep")->size(), 1u);
+  // The id can be used again and starts empty.
+  ASSERT_TRUE((*store)->CreateSession(Session("s")).ok());
+  EXPECT_TRUE((*store)->LoadSamples("s")->empty());
+}
+
+void SetSchemaVersion(const std::string& db_path, const char* sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(db_path.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, sql, nullptr, nullptr, nullptr), SQLITE_OK)
+      << sqlite3_errmsg(db);
+  sqlite3_close(db);
+}
+
+TEST(SqliteStoreTest, RefusesNewerSchemaVersion) {
+  excite::testing::TempDir tmp;
+  { ASSERT_TRUE(SqliteStore::Open(tmp.path()).ok()); }
+  SetSchemaVersion(tmp.path() + "/excite.db", "UPDATE schema_version SET version = 99");
+  auto store = SqliteStore::Open(tmp.path());
+  EXPECT_EQ(store.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(store.status().message(), HasSubstr("schema version 99 is newer"));
+}
+
+TEST(SqliteStoreTest, RefusesUnknownSchemaVersionAndForeignDatabases) {
+  excite::testing::TempDir tmp;
+  { ASSERT_TRUE(SqliteStore::Open(tmp.path()).ok()); }
+  SetSchemaVersion(tmp.path() + "/excite.db", "UPDATE schema_version SET version = 0");
+  auto store = SqliteStore::Open(tmp.path());
+  EXPECT_EQ(store.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(store.status().message(), HasSubstr("unknown schema version 0"));
+
+  excite::testing::TempDir other;
+  SetSchemaVersion(other.path() + "/excite.db", "CREATE TABLE foo (x INTEGER)");
+  auto foreign = SqliteStore::Open(other.path());
+  EXPECT_EQ(foreign.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(foreign.status().message(), HasSubstr("no schema_version table"));
+}
+
+TEST(SqliteStoreTest, SecondOpenOfSameDirectoryIsRefused) {
+  excite::testing::TempDir tmp;
+  auto first = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(first.ok());
+  auto second = SqliteStore::Open(tmp.path());
+  EXPECT_EQ(second.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(second.status().message(), HasSubstr("in use"));
+  first->reset();
+  EXPECT_TRUE(SqliteStore::Open(tmp.path()).ok());
+}
+
+TEST(SqliteStoreTest, UsesWalAndFullSync) {
+  excite::testing::TempDir tmp;
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok());
+  ASSERT_TRUE((*store)->CreateSession(Session("s")).ok());
+  EXPECT_TRUE(std::filesystem::exists(tmp.path() + "/excite.db-wal"));
+}
+
+}  // namespace
+}  // namespace excite::store
