@@ -24,9 +24,10 @@ struct IpoptSettings {
   std::vector<std::pair<std::string, int>> integer_options;
   std::vector<std::pair<std::string, double>> numeric_options;
   // If not null, Ipopt's output up to `log_level` (an Ipopt::EJournalLevel,
-  // 0..12; 2 = warnings, 3 = summary) is appended here.
+  // 0..12; 3 = summary, 4 = warnings incl. derivative-checker errors, 5 = one
+  // line per iteration) is appended here.
   std::string* log = nullptr;
-  int log_level = 3;
+  int log_level = 4;
 };
 
 struct IpoptOutcome {
