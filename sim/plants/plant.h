@@ -1,9 +1,8 @@
 #ifndef EXCITE_SIM_PLANTS_PLANT_H_
 #define EXCITE_SIM_PLANTS_PLANT_H_
 
-#include <string>
-
 #include <Eigen/Dense>
+#include <string>
 
 namespace excite::sim {
 
@@ -18,7 +17,8 @@ class Plant {
   virtual int input_dim() const = 0;
   // The true next state after applying u (held constant) for one sampling period.
   // u is used as given: bounds are the caller's business.
-  virtual Eigen::VectorXd Step(const Eigen::VectorXd& x, const Eigen::VectorXd& u) const = 0;
+  virtual Eigen::VectorXd Step(const Eigen::VectorXd& x,
+                               const Eigen::VectorXd& u) const = 0;
 };
 
 }  // namespace excite::sim

@@ -1,0 +1,137 @@
+#include "sim/evaluation.h"
+
+#include <cmath>
+#include <cstdint>
+#include <unordered_set>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "sim/portable_random.h"
+
+namespace excite::sim {
+namespace {
+
+absl::Status CheckBox(const Box& box, int dim, const char* what) {
+  if (box.lower.size() != dim || box.upper.size() != dim) {
+    return absl::InvalidArgumentError(absl::StrCat(what, " has ", box.lower.size(), "/",
+                                                   box.upper.size(), " bounds, expected ",
+                                                   dim));
+  }
+  for (int i = 0; i < dim; ++i) {
+    if (!(box.lower(i) < box.upper(i)) || !std::isfinite(box.lower(i)) ||
+        !std::isfinite(box.upper(i))) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(what, " dimension ", i, ": need finite lower < upper, got [",
+                       box.lower(i), ", ", box.upper(i), "]"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+// The bin of v among `bins` equal bins of [lower, upper], or -1 if v is outside.
+int BinOf(double v, double lower, double upper, int bins) {
+  if (!(v >= lower && v <= upper)) return -1;
+  const int bin = static_cast<int>(std::floor((v - lower) / (upper - lower) * bins));
+  return bin >= bins ? bins - 1 : bin;
+}
+
+}  // namespace
+
+absl::StatusOr<EvaluationSet> MakeEvaluationSet(const Plant& plant, const Box& region,
+                                                const Box& inputs, int points,
+                                                uint64_t seed) {
+  if (points < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("evaluation points must be >= 1, got ", points));
+  }
+  const int dx = plant.state_dim();
+  const int du = plant.input_dim();
+  if (absl::Status s = CheckBox(region, dx, "state region"); !s.ok()) return s;
+  if (absl::Status s = CheckBox(inputs, du, "input bounds"); !s.ok()) return s;
+
+  PortableRandom random(seed);
+  EvaluationSet set;
+  set.inputs.resize(points, dx + du);
+  set.next_states.resize(points, dx);
+  Eigen::VectorXd x(dx);
+  Eigen::VectorXd u(du);
+  for (int p = 0; p < points; ++p) {
+    for (int i = 0; i < dx; ++i) x(i) = random.Uniform(region.lower(i), region.upper(i));
+    for (int j = 0; j < du; ++j) u(j) = random.Uniform(inputs.lower(j), inputs.upper(j));
+    set.inputs.row(p).head(dx) = x.transpose();
+    set.inputs.row(p).tail(du) = u.transpose();
+    set.next_states.row(p) = plant.Step(x, u).transpose();
+  }
+  return set;
+}
+
+absl::StatusOr<double> Rmse(const Eigen::MatrixXd& predicted_mean,
+                            const Eigen::MatrixXd& true_next_states) {
+  if (predicted_mean.rows() != true_next_states.rows() ||
+      predicted_mean.cols() != true_next_states.cols()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("RMSE of a ", predicted_mean.rows(), "x", predicted_mean.cols(),
+                     " prediction against ", true_next_states.rows(), "x",
+                     true_next_states.cols(), " true states"));
+  }
+  if (predicted_mean.rows() == 0) {
+    return absl::InvalidArgumentError("RMSE of an empty evaluation set");
+  }
+  const double squared_sum = (predicted_mean - true_next_states).squaredNorm();
+  return std::sqrt(squared_sum / static_cast<double>(predicted_mean.rows()));
+}
+
+absl::StatusOr<Coverage> ComputeCoverage(const Eigen::MatrixXd& visited,
+                                         const Box& region, int marginal_bins,
+                                         int joint_bins) {
+  const int dx = static_cast<int>(visited.cols());
+  if (dx < 1) return absl::InvalidArgumentError("coverage of states with no dimension");
+  if (marginal_bins < 1 || joint_bins < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("coverage bins must be >= 1, got marginal ", marginal_bins,
+                     ", joint ", joint_bins));
+  }
+  if (absl::Status s = CheckBox(region, dx, "coverage region"); !s.ok()) return s;
+
+  Coverage coverage;
+  double marginal_sum = 0.0;
+  for (int d = 0; d < dx; ++d) {
+    std::vector<bool> hit(marginal_bins, false);
+    int hits = 0;
+    for (Eigen::Index n = 0; n < visited.rows(); ++n) {
+      const int bin =
+          BinOf(visited(n, d), region.lower(d), region.upper(d), marginal_bins);
+      if (bin >= 0 && !hit[bin]) {
+        hit[bin] = true;
+        ++hits;
+      }
+    }
+    marginal_sum += static_cast<double>(hits) / marginal_bins;
+  }
+  coverage.marginal = marginal_sum / dx;
+
+  if (dx <= kMaxJointCoverageDim) {
+    const double cells = std::pow(static_cast<double>(joint_bins), dx);
+    if (cells > 1e15) {
+      return absl::InvalidArgumentError(absl::StrCat("joint coverage with ", joint_bins,
+                                                     "^", dx, " cells is too fine"));
+    }
+    std::unordered_set<int64_t> hit;
+    for (Eigen::Index n = 0; n < visited.rows(); ++n) {
+      int64_t cell = 0;
+      bool inside = true;
+      for (int d = 0; d < dx && inside; ++d) {
+        const int bin =
+            BinOf(visited(n, d), region.lower(d), region.upper(d), joint_bins);
+        inside = bin >= 0;
+        cell = cell * joint_bins + bin;
+      }
+      if (inside) hit.insert(cell);
+    }
+    coverage.joint = static_cast<double>(hit.size()) / cells;
+  }
+  return coverage;
+}
+
+}  // namespace excite::sim

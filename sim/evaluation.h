@@ -1,0 +1,69 @@
+#ifndef EXCITE_SIM_EVALUATION_H_
+#define EXCITE_SIM_EVALUATION_H_
+
+#include <Eigen/Dense>
+#include <cstdint>
+#include <optional>
+
+#include "absl/status/statusor.h"
+#include "sim/plants/plant.h"
+
+namespace excite::sim {
+
+// An axis-aligned box [lower, upper] (same size, lower < upper entrywise).
+struct Box {
+  Eigen::VectorXd lower;
+  Eigen::VectorXd upper;
+};
+
+// The points a model is scored on: z_p = (x_p, u_p) drawn uniformly and
+// independently from region x input box, and the plant's true next state f(z_p).
+struct EvaluationSet {
+  Eigen::MatrixXd inputs;  // points x (state_dim + input_dim), rows z_p = (x_p, u_p).
+  Eigen::MatrixXd next_states;  // points x state_dim, rows f(z_p) (noise-free).
+};
+
+// Draws `points` z_p with PortableRandom(seed) (the same set for a given seed on
+// every platform, hence for every strategy compared) and steps the plant once from
+// each. INVALID_ARGUMENT if points < 1 or a box does not match the plant's dims or
+// has lower >= upper. O(points) plant steps.
+absl::StatusOr<EvaluationSet> MakeEvaluationSet(const Plant& plant, const Box& region,
+                                                const Box& inputs, int points,
+                                                uint64_t seed);
+
+// Root mean square prediction error over the P rows of the evaluation set:
+//   RMSE = sqrt( (1/P) * sum_p || mean_p - f(z_p) ||_2^2 ),
+// i.e. the squared Euclidean error is summed over the state dimensions (not
+// averaged) and averaged over the points. The paper (Section 6) says only "RMSE over
+// a grid of uniformly random states and inputs"; this is our reading of it, in
+// state units. INVALID_ARGUMENT if the shapes differ or there are no rows.
+absl::StatusOr<double> Rmse(const Eigen::MatrixXd& predicted_mean,
+                            const Eigen::MatrixXd& true_next_states);
+
+// The joint coverage is computed up to this state dimension (bins^dim cells).
+inline constexpr int kMaxJointCoverageDim = 4;
+
+struct Coverage {
+  // Mean over the state dimensions d of (number of the `marginal_bins` equal bins of
+  // [lower_d, upper_d] that contain x_d of at least one visited state) / bins.
+  double marginal = 0.0;
+  // (number of the joint_bins^state_dim equal cells of the region that contain at
+  // least one visited state) / joint_bins^state_dim; nullopt ("not computed") when
+  // state_dim > kMaxJointCoverageDim.
+  std::optional<double> joint;
+};
+
+// Coverage of `region` by `visited` (n x state_dim, one state per row; the true,
+// noise-free states). Bins are half-open [a, b) except the last, which includes
+// upper; values outside the region fall in no bin (for the joint coverage a state
+// counts only if all its coordinates are inside). Both fractions are in [0, 1].
+// INVALID_ARGUMENT on a bin count < 1, a region that does not match `visited` or
+// has lower >= upper, or joint_bins^state_dim > 1e15. O(n state_dim) time and
+// memory.
+absl::StatusOr<Coverage> ComputeCoverage(const Eigen::MatrixXd& visited,
+                                         const Box& region, int marginal_bins,
+                                         int joint_bins);
+
+}  // namespace excite::sim
+
+#endif  // EXCITE_SIM_EVALUATION_H_

@@ -1,0 +1,171 @@
+#include "sim/evaluation.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <string>
+
+#include "absl/status/status.h"
+
+namespace excite::sim {
+namespace {
+
+// x_{k+1} = x_k + 2 u_k, one state and one input: easy to check by hand.
+class AddPlant : public Plant {
+ public:
+  std::string name() const override { return "add"; }
+  int state_dim() const override { return 1; }
+  int input_dim() const override { return 1; }
+  Eigen::VectorXd Step(const Eigen::VectorXd& x,
+                       const Eigen::VectorXd& u) const override {
+    return x + 2.0 * u;
+  }
+};
+
+Box MakeBox(std::initializer_list<double> lower, std::initializer_list<double> upper) {
+  Box box;
+  box.lower = Eigen::Map<const Eigen::VectorXd>(lower.begin(), lower.size());
+  box.upper = Eigen::Map<const Eigen::VectorXd>(upper.begin(), upper.size());
+  return box;
+}
+
+TEST(RmseTest, HandComputed) {
+  Eigen::MatrixXd predicted(2, 2);
+  predicted << 1.0, 0.0,  //
+      0.0, 0.0;
+  Eigen::MatrixXd truth(2, 2);
+  truth << 0.0, 0.0,  //
+      0.0, 2.0;
+  // Point errors: ||(1, 0)||^2 = 1, ||(0, -2)||^2 = 4; mean 2.5.
+  absl::StatusOr<double> rmse = Rmse(predicted, truth);
+  ASSERT_TRUE(rmse.ok());
+  EXPECT_DOUBLE_EQ(*rmse, std::sqrt(2.5));
+}
+
+TEST(RmseTest, ZeroForPerfectPrediction) {
+  const Eigen::MatrixXd truth = Eigen::MatrixXd::Random(5, 3);
+  EXPECT_EQ(*Rmse(truth, truth), 0.0);
+}
+
+TEST(RmseTest, ShapeMismatchAndEmpty) {
+  EXPECT_EQ(Rmse(Eigen::MatrixXd(2, 2), Eigen::MatrixXd(2, 3)).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(Rmse(Eigen::MatrixXd(0, 2), Eigen::MatrixXd(0, 2)).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+TEST(EvaluationSetTest, PointsInBoxesAndTrueNextStates) {
+  const AddPlant plant;
+  const Box region = MakeBox({-1.0}, {3.0});
+  const Box inputs = MakeBox({0.5}, {0.75});
+  absl::StatusOr<EvaluationSet> set = MakeEvaluationSet(plant, region, inputs, 200, 42);
+  ASSERT_TRUE(set.ok()) << set.status();
+  ASSERT_EQ(set->inputs.rows(), 200);
+  ASSERT_EQ(set->inputs.cols(), 2);
+  ASSERT_EQ(set->next_states.rows(), 200);
+  ASSERT_EQ(set->next_states.cols(), 1);
+  for (int p = 0; p < 200; ++p) {
+    const double x = set->inputs(p, 0);
+    const double u = set->inputs(p, 1);
+    EXPECT_GE(x, -1.0);
+    EXPECT_LT(x, 3.0);
+    EXPECT_GE(u, 0.5);
+    EXPECT_LT(u, 0.75);
+    EXPECT_DOUBLE_EQ(set->next_states(p, 0), x + 2.0 * u);
+  }
+  // Spread over the region, not stuck in a corner.
+  EXPECT_NEAR(set->inputs.col(0).mean(), 1.0, 0.4);
+}
+
+TEST(EvaluationSetTest, SameSeedSameSetOtherSeedOtherSet) {
+  const AddPlant plant;
+  const Box region = MakeBox({0.0}, {1.0});
+  const Box inputs = MakeBox({0.0}, {1.0});
+  const EvaluationSet a = *MakeEvaluationSet(plant, region, inputs, 10, 7);
+  const EvaluationSet b = *MakeEvaluationSet(plant, region, inputs, 10, 7);
+  const EvaluationSet c = *MakeEvaluationSet(plant, region, inputs, 10, 8);
+  EXPECT_EQ(a.inputs, b.inputs);
+  EXPECT_NE(a.inputs, c.inputs);
+}
+
+TEST(EvaluationSetTest, Errors) {
+  const AddPlant plant;
+  const Box ok = MakeBox({0.0}, {1.0});
+  EXPECT_EQ(MakeEvaluationSet(plant, ok, ok, 0, 1).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(
+      MakeEvaluationSet(plant, MakeBox({0.0, 0.0}, {1.0, 1.0}), ok, 5, 1).status().code(),
+      absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(MakeEvaluationSet(plant, ok, MakeBox({1.0}, {1.0}), 5, 1).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+TEST(CoverageTest, HandComputedTwoDimensions) {
+  // Region [0, 1] x [0, 1].
+  Eigen::MatrixXd visited(4, 2);
+  visited << 0.1, 0.1,  //
+      0.3, 0.9,         //
+      1.0, 1.0,         // On the upper boundary: last bin.
+      2.0, 0.5;         // theta outside: no bin in dim 0 nor joint; dim 1 counts.
+  // Marginal, 4 bins of 0.25: dim 0 hits bins {0, 1, 3} -> 3/4; dim 1 hits
+  // {0, 3, 3, 2} -> 3/4; mean 0.75.
+  // Joint, 3 x 3 cells: (0, 0), (0, 2), (2, 2) -> 3/9.
+  absl::StatusOr<Coverage> coverage =
+      ComputeCoverage(visited, MakeBox({0.0, 0.0}, {1.0, 1.0}), 4, 3);
+  ASSERT_TRUE(coverage.ok()) << coverage.status();
+  EXPECT_DOUBLE_EQ(coverage->marginal, 0.75);
+  ASSERT_TRUE(coverage->joint.has_value());
+  EXPECT_DOUBLE_EQ(*coverage->joint, 1.0 / 3.0);
+}
+
+TEST(CoverageTest, DifferentMarginalsAreAveraged) {
+  // Region [-1, 1] x [0, 10], 2 bins each: dim 0 hits both, dim 1 only the first.
+  Eigen::MatrixXd visited(2, 2);
+  visited << -0.5, 1.0,  //
+      0.5, 2.0;
+  const Coverage coverage =
+      *ComputeCoverage(visited, MakeBox({-1.0, 0.0}, {1.0, 10.0}), 2, 2);
+  EXPECT_DOUBLE_EQ(coverage.marginal, (1.0 + 0.5) / 2.0);
+  EXPECT_DOUBLE_EQ(*coverage.joint, 2.0 / 4.0);
+}
+
+TEST(CoverageTest, RepeatedStatesCountOnce) {
+  const Eigen::MatrixXd visited = Eigen::MatrixXd::Constant(100, 1, 0.5);
+  const Coverage coverage = *ComputeCoverage(visited, MakeBox({0.0}, {1.0}), 10, 5);
+  EXPECT_DOUBLE_EQ(coverage.marginal, 0.1);
+  EXPECT_DOUBLE_EQ(*coverage.joint, 0.2);
+}
+
+TEST(CoverageTest, NoJointAboveFourDimensions) {
+  const Eigen::MatrixXd visited = Eigen::MatrixXd::Zero(3, 5);
+  const Box region{Eigen::VectorXd::Constant(5, -1.0), Eigen::VectorXd::Constant(5, 1.0)};
+  const Coverage coverage = *ComputeCoverage(visited, region, 2, 10);
+  EXPECT_DOUBLE_EQ(coverage.marginal, 0.5);
+  EXPECT_FALSE(coverage.joint.has_value());
+}
+
+TEST(CoverageTest, JointUpToFourDimensions) {
+  const Eigen::MatrixXd visited = Eigen::MatrixXd::Zero(1, 4);
+  const Box region{Eigen::VectorXd::Constant(4, -1.0), Eigen::VectorXd::Constant(4, 1.0)};
+  const Coverage coverage = *ComputeCoverage(visited, region, 2, 10);
+  ASSERT_TRUE(coverage.joint.has_value());
+  EXPECT_DOUBLE_EQ(*coverage.joint, 1e-4);
+}
+
+TEST(CoverageTest, Errors) {
+  const Eigen::MatrixXd visited = Eigen::MatrixXd::Zero(3, 2);
+  const Box region = MakeBox({0.0, 0.0}, {1.0, 1.0});
+  EXPECT_EQ(ComputeCoverage(visited, region, 0, 2).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ComputeCoverage(visited, region, 2, 0).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ComputeCoverage(visited, MakeBox({0.0}, {1.0}), 2, 2).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(
+      ComputeCoverage(visited, MakeBox({0.0, 1.0}, {1.0, 1.0}), 2, 2).status().code(),
+      absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace excite::sim
