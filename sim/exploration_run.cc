@@ -1,0 +1,308 @@
+#include "sim/exploration_run.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "sim/evaluation.h"
+#include "sim/portable_random.h"
+#include "sim/sim_config.h"
+
+namespace excite::sim {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MillisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+Box BoxOf(const google::protobuf::RepeatedPtrField<v1::Interval>& bounds) {
+  Box box{Eigen::VectorXd(bounds.size()), Eigen::VectorXd(bounds.size())};
+  for (int i = 0; i < bounds.size(); ++i) {
+    box.lower(i) = bounds[i].lower();
+    box.upper(i) = bounds[i].upper();
+  }
+  return box;
+}
+
+absl::Status Annotate(const absl::Status& status, absl::string_view context) {
+  return absl::Status(status.code(), absl::StrCat(context, ": ", status.message()));
+}
+
+// The state of one run; RunExploration's steps as methods.
+class ExplorationRun {
+ public:
+  ExplorationRun(client::ExciteClient& client, const Plant& plant,
+                 const v1::SimConfig& config, const ExplorationOptions& options)
+      : client_(client),
+        plant_(plant),
+        config_(config),
+        options_(options),
+        dx_(plant.state_dim()),
+        du_(plant.input_dim()),
+        region_(BoxOf(config.session().state_bounds())),
+        input_box_(BoxOf(config.session().input_bounds())),
+        noise_stddev_(std::sqrt(config.session().noise().variance())),
+        noise_random_(config.session().seed(), 1),
+        input_random_(config.session().seed(), 2) {}
+
+  absl::StatusOr<RunSummary> Run();
+  const std::string& session_name() const { return session_name_; }
+
+ private:
+  absl::Status Explore();
+  // Applies u for one sampling period and queues the transition.
+  absl::Status ApplyInput(const Eigen::VectorXd& u);
+  // Sends the queued transitions (one AddData stream) and evaluates if due.
+  absl::Status FlushAndMaybeEvaluate();
+  absl::Status Evaluate();
+  Eigen::VectorXd Measure(const Eigen::VectorXd& x);
+
+  client::ExciteClient& client_;
+  const Plant& plant_;
+  const v1::SimConfig& config_;
+  const ExplorationOptions& options_;
+  const int dx_;
+  const int du_;
+  const Box region_;
+  const Box input_box_;
+  const double noise_stddev_;
+  PortableRandom noise_random_;
+  PortableRandom input_random_;
+
+  std::string session_name_;
+  EvaluationSet evaluation_set_;
+  v1::PredictRequest predict_request_;
+  Eigen::VectorXd x_;  // True state.
+  Eigen::VectorXd y_;  // Its measurement.
+  std::vector<Eigen::VectorXd> visited_;
+  std::vector<v1::Transition> pending_;
+  int64_t samples_ = 0;
+  double start_unix_s_ = 0.0;
+  std::vector<double> plan_ms_;
+  int64_t random_steps_ = 0;
+  RunSummary summary_;
+};
+
+Eigen::VectorXd ExplorationRun::Measure(const Eigen::VectorXd& x) {
+  Eigen::VectorXd y = x;
+  for (int i = 0; i < dx_; ++i) y(i) += noise_stddev_ * noise_random_.Normal();
+  return y;
+}
+
+absl::StatusOr<RunSummary> ExplorationRun::Run() {
+  const auto start = Clock::now();
+  start_unix_s_ =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+          .count();
+  const v1::EvaluationConfig& evaluation = config_.evaluation();
+  absl::StatusOr<EvaluationSet> set = MakeEvaluationSet(
+      plant_, region_, input_box_, evaluation.points(), evaluation.seed());
+  if (!set.ok()) return Annotate(set.status(), "evaluation set");
+  evaluation_set_ = *std::move(set);
+
+  absl::StatusOr<v1::Session> session =
+      client_.CreateSession(config_.session(), options_.session_id);
+  if (!session.ok()) return Annotate(session.status(), "CreateSession");
+  session_name_ = session->name();
+
+  predict_request_.set_session(session_name_);
+  predict_request_.set_include_noise(false);
+  for (Eigen::Index p = 0; p < evaluation_set_.inputs.rows(); ++p) {
+    for (Eigen::Index j = 0; j < evaluation_set_.inputs.cols(); ++j) {
+      predict_request_.add_inputs(evaluation_set_.inputs(p, j));
+    }
+  }
+
+  absl::Status explored = Explore();
+  if (!options_.keep_session) {
+    const absl::Status deleted = client_.DeleteSession(session_name_);
+    if (explored.ok() && !deleted.ok()) {
+      explored = Annotate(deleted, absl::StrCat("DeleteSession ", session_name_));
+    }
+  }
+  if (!explored.ok()) {
+    return Annotate(explored,
+                    absl::StrCat(session_name_, " after ", samples_, " samples"));
+  }
+
+  Eigen::MatrixXd visited(static_cast<Eigen::Index>(visited_.size()), dx_);
+  for (size_t n = 0; n < visited_.size(); ++n) {
+    visited.row(static_cast<Eigen::Index>(n)) = visited_[n].transpose();
+  }
+  absl::StatusOr<Coverage> coverage = ComputeCoverage(
+      visited, region_, evaluation.marginal_bins(), evaluation.joint_bins());
+  if (!coverage.ok()) return Annotate(coverage.status(), "coverage");
+
+  summary_.system = config_.system();
+  summary_.strategy = StrategyName(config_.session().strategy());
+  summary_.session = session_name_;
+  summary_.samples = samples_;
+  summary_.final_rmse =
+      summary_.rmse_history.empty() ? NAN : summary_.rmse_history.back().rmse;
+  summary_.coverage_marginal = coverage->marginal;
+  summary_.coverage_joint = coverage->joint;
+  summary_.plan_ms_p50 = Median(plan_ms_);
+  summary_.plans = static_cast<int64_t>(plan_ms_.size());
+  summary_.random_steps = random_steps_;
+  summary_.wall_s = MillisecondsSince(start) / 1000.0;
+  return summary_;
+}
+
+absl::Status ExplorationRun::Explore() {
+  const v1::SessionConfig& session = config_.session();
+  const int64_t target = config_.samples();
+  const int64_t min_samples =
+      session.refit().min_samples() > 0 ? session.refit().min_samples() : 2;
+
+  x_ = Eigen::VectorXd::Zero(dx_);
+  for (int i = 0; i < config_.plant().initial_state_size(); ++i) {
+    x_(i) = config_.plant().initial_state(i);
+  }
+  y_ = Measure(x_);
+  visited_.push_back(x_);
+
+  while (samples_ < target) {
+    std::vector<Eigen::VectorXd> inputs;
+    const auto plan_start = Clock::now();
+    absl::StatusOr<v1::PlanInputsResponse> plan = client_.PlanInputs(
+        session_name_, std::vector<double>(y_.data(), y_.data() + dx_));
+    if (!plan.ok()) {
+      if (plan.status().code() != absl::StatusCode::kFailedPrecondition ||
+          samples_ >= min_samples) {
+        return Annotate(plan.status(), "PlanInputs");
+      }
+      // Too little data to plan: one uniformly random input.
+      Eigen::VectorXd u(du_);
+      for (int j = 0; j < du_; ++j) {
+        u(j) = input_random_.Uniform(input_box_.lower(j), input_box_.upper(j));
+      }
+      inputs.push_back(u);
+      ++random_steps_;
+    } else {
+      plan_ms_.push_back(MillisecondsSince(plan_start));
+      const int horizon = plan->horizon();
+      const int apply = plan->apply_count();
+      if (horizon < 1 || plan->inputs_size() != horizon * du_ || apply < 1 ||
+          apply > horizon) {
+        return absl::InternalError(absl::StrCat(
+            "PlanInputs: malformed reply (horizon ", horizon, ", apply_count ", apply,
+            ", ", plan->inputs_size(), " inputs for input_dim ", du_, ")"));
+      }
+      for (int i = 0; i < apply; ++i) {
+        Eigen::VectorXd u(du_);
+        for (int j = 0; j < du_; ++j) {
+          const double value = plan->inputs(i * du_ + j);
+          if (!std::isfinite(value)) {
+            return absl::InternalError("PlanInputs: non-finite planned input");
+          }
+          u(j) = std::clamp(value, input_box_.lower(j), input_box_.upper(j));
+        }
+        inputs.push_back(std::move(u));
+      }
+    }
+    for (const Eigen::VectorXd& u : inputs) {
+      if (samples_ >= target) break;
+      if (absl::Status s = ApplyInput(u); !s.ok()) return s;
+      const int64_t every = config_.evaluation().every_samples();
+      if (samples_ % every == 0 || samples_ == target) {
+        if (absl::Status s = FlushAndMaybeEvaluate(); !s.ok()) return s;
+      }
+    }
+    if (absl::Status s = FlushAndMaybeEvaluate(); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ExplorationRun::ApplyInput(const Eigen::VectorXd& u) {
+  const Eigen::VectorXd x_next = plant_.Step(x_, u);
+  if (!x_next.allFinite()) {
+    return absl::InternalError(
+        absl::StrCat("the ", plant_.name(), " state is no longer finite"));
+  }
+  const Eigen::VectorXd y_next = Measure(x_next);
+  v1::Transition transition;
+  for (int i = 0; i < dx_; ++i) transition.add_state(y_(i));
+  for (int j = 0; j < du_; ++j) transition.add_input(u(j));
+  for (int i = 0; i < dx_; ++i) transition.add_next_state(y_next(i));
+  transition.set_sequence(samples_);
+  transition.set_timestamp_s(start_unix_s_ +
+                             static_cast<double>(samples_) * config_.plant().dt_s());
+  pending_.push_back(std::move(transition));
+  x_ = x_next;
+  y_ = y_next;
+  visited_.push_back(x_);
+  ++samples_;
+  return absl::OkStatus();
+}
+
+absl::Status ExplorationRun::FlushAndMaybeEvaluate() {
+  if (pending_.empty()) return absl::OkStatus();
+  const int64_t sent = static_cast<int64_t>(pending_.size());
+  absl::StatusOr<v1::AddDataResponse> reply = client_.AddData(session_name_, {pending_});
+  pending_.clear();
+  if (!reply.ok()) return Annotate(reply.status(), "AddData");
+  if (reply->stored() != sent || reply->sample_count() != samples_) {
+    return absl::DataLossError(
+        absl::StrCat("AddData stored ", reply->stored(), " of ", sent, " transitions (",
+                     reply->duplicates(), " duplicates); the session has ",
+                     reply->sample_count(), " samples, expected ", samples_));
+  }
+  const int64_t every = config_.evaluation().every_samples();
+  const int64_t min_samples = config_.session().refit().min_samples() > 0
+                                  ? config_.session().refit().min_samples()
+                                  : 2;
+  if ((samples_ % every == 0 || samples_ == config_.samples()) &&
+      samples_ >= min_samples) {
+    return Evaluate();
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ExplorationRun::Evaluate() {
+  absl::StatusOr<v1::PredictResponse> reply = client_.Predict(predict_request_);
+  if (!reply.ok()) return Annotate(reply.status(), "Predict");
+  const Eigen::Index points = evaluation_set_.next_states.rows();
+  if (reply->mean_size() != points * dx_) {
+    return absl::InternalError(absl::StrCat("Predict returned ", reply->mean_size(),
+                                            " means for ", points, " points"));
+  }
+  const Eigen::MatrixXd mean = Eigen::Map<
+      const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      reply->mean().data(), points, dx_);
+  absl::StatusOr<double> rmse = Rmse(mean, evaluation_set_.next_states);
+  if (!rmse.ok()) return rmse.status();
+  summary_.rmse_history.push_back({samples_, *rmse});
+  if (options_.log != nullptr) {
+    *options_.log << absl::StrFormat("step %d samples %d rmse %.4f plan_ms %.1f\n",
+                                     static_cast<int64_t>(plan_ms_.size()), samples_,
+                                     *rmse, plan_ms_.empty() ? 0.0 : plan_ms_.back())
+                  << std::flush;
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<RunSummary> RunExploration(client::ExciteClient& client,
+                                          const Plant& plant, const v1::SimConfig& config,
+                                          const ExplorationOptions& options) {
+  if (absl::Status s = ValidateSimConfig(config); !s.ok()) return s;
+  if (plant.state_dim() != config.session().state_dim() ||
+      plant.input_dim() != config.session().input_dim()) {
+    return absl::InvalidArgumentError(
+        "the plant's dims differ from the session config's");
+  }
+  ExplorationRun run(client, plant, config, options);
+  return run.Run();
+}
+
+}  // namespace excite::sim

@@ -1,0 +1,55 @@
+#ifndef EXCITE_SIM_EXPLORATION_RUN_H_
+#define EXCITE_SIM_EXPLORATION_RUN_H_
+
+#include <ostream>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "client/excite_client.h"
+#include "excite/v1/sim_config.pb.h"
+#include "sim/plants/plant.h"
+#include "sim/run_summary.h"
+
+namespace excite::sim {
+
+struct ExplorationOptions {
+  // Session id to ask for; empty lets the server pick one.
+  std::string session_id;
+  // Keep the session on the server at the end (default: delete it, also on failure).
+  bool keep_session = false;
+  // Progress lines go here ("step <k> samples <n> rmse <r> plan_ms <p>"); may be null.
+  std::ostream* log = nullptr;
+};
+
+// Runs one exploration of `plant` against the server behind `client`, as `config`
+// (already validated by ValidateSimConfig, overrides applied) describes:
+//
+//  1. CreateSession(config.session); x = plant.initial_state (zeros if empty); the
+//     measured state is y = x + e, e ~ N(0, noise.variance) per dimension, drawn
+//     from PortableRandom(session.seed, stream 1).
+//  2. Until `samples` transitions: PlanInputs(y). While the session holds fewer than
+//     refit.min_samples (default 2) samples the server answers FAILED_PRECONDITION;
+//     then ONE input drawn uniformly from the input bounds (PortableRandom(seed,
+//     stream 2)) is applied and we ask again (the run's summary counts these
+//     random_steps). Otherwise the first apply_count planned inputs (1 for rec and
+//     greedy, M for pa) are applied, each clipped to the input bounds.
+//  3. Each applied input u: x' = plant.Step(x, u), y' = x' + e'; the transition
+//     (state y, input u as applied, next_state y', sequence = index of the sample
+//     from 0, timestamp = run start (Unix s) + index * dt, i.e. plant time) is sent
+//     with AddData: one stream per applied chunk (split at evaluation points), and
+//     the reply must count every transition as stored.
+//  4. Whenever the sample count reaches a multiple of evaluation.every_samples (and
+//     at the end), the RMSE of the model on the evaluation set (evaluation.h; one
+//     batched Predict, latent mean) is recorded and a progress line logged.
+//  5. Coverage of the region (session.state_bounds) by the true states x_0..x_N.
+//
+// plan_ms_p50 is the median client-side round trip of the successful PlanInputs
+// calls. Errors: any failed call (with the call and the sample count in the
+// message), a malformed reply, or a plant state that is no longer finite.
+absl::StatusOr<RunSummary> RunExploration(client::ExciteClient& client,
+                                          const Plant& plant, const v1::SimConfig& config,
+                                          const ExplorationOptions& options);
+
+}  // namespace excite::sim
+
+#endif  // EXCITE_SIM_EXPLORATION_RUN_H_

@@ -1,0 +1,98 @@
+#include "sim/run_summary.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+
+namespace excite::sim {
+namespace {
+
+std::string JsonNumber(double value) {
+  if (!std::isfinite(value)) return "null";
+  return absl::StrFormat("%.17g", value);
+}
+
+std::string JsonString(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    switch (c) {
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) {
+          out += absl::StrFormat("\\u%04x", static_cast<int>(c));
+        } else {
+          out += c;
+        }
+    }
+  }
+  out += "\"";
+  return out;
+}
+
+}  // namespace
+
+std::string RunSummaryToJson(const RunSummary& summary) {
+  std::string history = "[";
+  for (size_t i = 0; i < summary.rmse_history.size(); ++i) {
+    absl::StrAppend(&history, i == 0 ? "" : ", ", "[", summary.rmse_history[i].samples,
+                    ", ", JsonNumber(summary.rmse_history[i].rmse), "]");
+  }
+  history += "]";
+  const std::string joint =
+      summary.coverage_joint.has_value() ? JsonNumber(*summary.coverage_joint) : "null";
+  return absl::StrCat("{\n",                                                    //
+                      "  \"system\": ", JsonString(summary.system), ",\n",      //
+                      "  \"strategy\": ", JsonString(summary.strategy), ",\n",  //
+                      "  \"session\": ", JsonString(summary.session), ",\n",    //
+                      "  \"samples\": ", summary.samples, ",\n",                //
+                      "  \"final_rmse\": ", JsonNumber(summary.final_rmse), ",\n",
+                      "  \"coverage_marginal\": ", JsonNumber(summary.coverage_marginal),
+                      ",\n",                                   //
+                      "  \"coverage_joint\": ", joint, ",\n",  //
+                      "  \"rmse_history\": ", history, ",\n",  //
+                      "  \"plan_ms_p50\": ", JsonNumber(summary.plan_ms_p50), ",\n",
+                      "  \"plans\": ", summary.plans, ",\n",                //
+                      "  \"random_steps\": ", summary.random_steps, ",\n",  //
+                      "  \"wall_s\": ", JsonNumber(summary.wall_s), "\n",   //
+                      "}\n");
+}
+
+absl::Status WriteRunSummary(const RunSummary& summary, const std::string& path) {
+  std::ofstream file(path, std::ios::trunc);
+  if (!file)
+    return absl::InternalError(absl::StrCat("cannot open ", path, " for writing"));
+  file << RunSummaryToJson(summary);
+  file.close();
+  if (!file) return absl::InternalError(absl::StrCat("cannot write ", path));
+  return absl::OkStatus();
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  const double upper = values[mid];
+  if (values.size() % 2 == 1) return upper;
+  const double lower = *std::max_element(values.begin(), values.begin() + mid);
+  return 0.5 * (lower + upper);
+}
+
+}  // namespace excite::sim

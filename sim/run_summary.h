@@ -1,0 +1,52 @@
+#ifndef EXCITE_SIM_RUN_SUMMARY_H_
+#define EXCITE_SIM_RUN_SUMMARY_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+
+namespace excite::sim {
+
+// The RMSE of the session's model after `samples` transitions.
+struct RmsePoint {
+  int64_t samples = 0;
+  double rmse = 0.0;
+};
+
+// What one exploration run produced (see exploration_run.h for how each field is
+// measured and evaluation.h for the metrics' definitions).
+struct RunSummary {
+  std::string system;
+  std::string strategy;  // "rec", "pa" or "greedy".
+  std::string session;   // "sessions/{id}".
+  int64_t samples = 0;   // Transitions collected and stored.
+  double final_rmse = 0.0;
+  double coverage_marginal = 0.0;        // Fraction in [0, 1].
+  std::optional<double> coverage_joint;  // Not computed for state_dim > 4.
+  std::vector<RmsePoint> rmse_history;   // In order of samples.
+  double plan_ms_p50 = 0.0;              // Median PlanInputs round trip [ms].
+  int64_t plans = 0;                     // Successful PlanInputs calls.
+  int64_t random_steps = 0;              // Random inputs applied before min_samples.
+  double wall_s = 0.0;                   // Wall time of the whole run [s].
+};
+
+// The summary as one JSON object with the keys system, strategy, session, samples,
+// final_rmse, coverage_marginal, coverage_joint, rmse_history ([[samples, rmse], ...]),
+// plan_ms_p50, plans, random_steps, wall_s. Non-finite numbers and a missing
+// coverage_joint are written as null. Ends with a newline.
+std::string RunSummaryToJson(const RunSummary& summary);
+
+// Writes RunSummaryToJson(summary) to `path` (replacing it). INTERNAL naming the
+// path if it cannot be written.
+absl::Status WriteRunSummary(const RunSummary& summary, const std::string& path);
+
+// The median of `values` (mean of the two middle ones for an even count; 0 if
+// empty). Takes a copy: O(n) expected time.
+double Median(std::vector<double> values);
+
+}  // namespace excite::sim
+
+#endif  // EXCITE_SIM_RUN_SUMMARY_H_

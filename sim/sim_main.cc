@@ -1,0 +1,121 @@
+// excite-sim: runs one active-learning exploration of a simulated plant against an
+// excite-server and writes a JSON summary.
+//
+//   excite-sim --server=127.0.0.1:50051 --config=sim/configs/pendulum.textproto
+//              --strategy=pa --samples=300 --seed=3 --summary=/tmp/pa.json
+
+#include <chrono>
+#include <cstdint>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "absl/strings/str_format.h"
+#include "client/excite_client.h"
+#include "sim/exploration_run.h"
+#include "sim/plants/plant_factory.h"
+#include "sim/run_summary.h"
+#include "sim/sim_config.h"
+
+ABSL_FLAG(std::string, server, "127.0.0.1:50051", "excite-server address, HOST:PORT");
+ABSL_FLAG(std::string, config, "", "SimConfig textproto file (required)");
+ABSL_FLAG(std::string, strategy, "", "rec, pa or greedy; overrides the config's");
+ABSL_FLAG(int32_t, samples, 0, "transitions to collect; 0 keeps the config's");
+ABSL_FLAG(int64_t, seed, -1,
+          "seed of the measurement noise and of the session; -1 keeps the config's "
+          "session.seed");
+ABSL_FLAG(std::string, summary, "", "write the JSON run summary to this file");
+ABSL_FLAG(bool, keep_session, false, "keep the session on the server at the end");
+ABSL_FLAG(std::string, session_id, "", "session id to ask for; empty: server's choice");
+ABSL_FLAG(int32_t, connect_timeout_s, 10, "how long to wait for the server to be ready");
+
+namespace excite::sim {
+namespace {
+
+int Fail(const absl::Status& status) {
+  std::cerr << "excite-sim: " << status.message() << " ("
+            << absl::StatusCodeToString(status.code()) << ")\n";
+  return 1;
+}
+
+int Main() {
+  const std::string config_path = absl::GetFlag(FLAGS_config);
+  if (config_path.empty()) {
+    return Fail(
+        absl::InvalidArgumentError("--config is required (a SimConfig textproto)"));
+  }
+  absl::StatusOr<v1::SimConfig> config = LoadSimConfig(config_path);
+  if (!config.ok()) return Fail(config.status());
+
+  SimOverrides overrides;
+  if (const std::string name = absl::GetFlag(FLAGS_strategy); !name.empty()) {
+    absl::StatusOr<v1::Strategy> strategy = ParseStrategy(name);
+    if (!strategy.ok()) return Fail(strategy.status());
+    overrides.strategy = *strategy;
+  }
+  if (const int32_t samples = absl::GetFlag(FLAGS_samples); samples != 0) {
+    if (samples < 0)
+      return Fail(absl::InvalidArgumentError("--samples must be positive"));
+    overrides.samples = samples;
+  }
+  if (const int64_t seed = absl::GetFlag(FLAGS_seed); seed >= 0) {
+    overrides.seed = static_cast<uint64_t>(seed);
+  }
+  ApplyOverrides(overrides, &*config);
+  if (absl::Status s = ValidateSimConfig(*config); !s.ok()) {
+    return Fail(absl::InvalidArgumentError(absl::StrCat(config_path, ": ", s.message())));
+  }
+  absl::StatusOr<std::unique_ptr<Plant>> plant = MakePlant(config->plant());
+  if (!plant.ok()) return Fail(plant.status());
+
+  const std::string server = absl::GetFlag(FLAGS_server);
+  std::unique_ptr<client::ExciteClient> client = client::ExciteClient::Connect(server);
+  if (absl::Status s = client->WaitForReady(
+          std::chrono::seconds(absl::GetFlag(FLAGS_connect_timeout_s)));
+      !s.ok()) {
+    return Fail(absl::UnavailableError(
+        absl::StrCat("cannot reach excite-server at ", server, ": ", s.message())));
+  }
+
+  std::cout << absl::StrFormat("excite-sim: %s, strategy %s, %d samples, server %s\n",
+                               config->system(),
+                               StrategyName(config->session().strategy()),
+                               config->samples(), server)
+            << std::flush;
+  ExplorationOptions options;
+  options.session_id = absl::GetFlag(FLAGS_session_id);
+  options.keep_session = absl::GetFlag(FLAGS_keep_session);
+  options.log = &std::cout;
+  absl::StatusOr<RunSummary> summary = RunExploration(*client, **plant, *config, options);
+  if (!summary.ok()) return Fail(summary.status());
+
+  std::cout << absl::StrFormat(
+      "final rmse %.4f coverage marginal %.3f joint %s plan_ms_p50 %.1f wall_s %.1f\n",
+      summary->final_rmse, summary->coverage_marginal,
+      summary->coverage_joint.has_value()
+          ? absl::StrFormat("%.3f", *summary->coverage_joint)
+          : "n/a",
+      summary->plan_ms_p50, summary->wall_s);
+  if (const std::string path = absl::GetFlag(FLAGS_summary); !path.empty()) {
+    if (absl::Status s = WriteRunSummary(*summary, path); !s.ok()) return Fail(s);
+    std::cout << "summary written to " << path << "\n";
+  }
+  if (options.keep_session) std::cout << "session kept: " << summary->session << "\n";
+  return 0;
+}
+
+}  // namespace
+}  // namespace excite::sim
+
+int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage(
+      "Runs one exploration of a simulated plant against excite-server.\n"
+      "  excite-sim --config=sim/configs/pendulum.textproto [--server=HOST:PORT]\n"
+      "             [--strategy=rec|pa|greedy] [--samples=N] [--seed=S] "
+      "[--summary=FILE]");
+  absl::ParseCommandLine(argc, argv);
+  return excite::sim::Main();
+}

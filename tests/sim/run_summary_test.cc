@@ -1,0 +1,85 @@
+#include "sim/run_summary.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace excite::sim {
+namespace {
+
+RunSummary Example() {
+  RunSummary summary;
+  summary.system = "pendulum";
+  summary.strategy = "rec";
+  summary.session = "sessions/a\"b";
+  summary.samples = 20;
+  summary.final_rmse = 0.5;
+  summary.coverage_marginal = 0.25;
+  summary.coverage_joint = 0.125;
+  summary.rmse_history = {{10, 1.5}, {20, 0.5}};
+  summary.plan_ms_p50 = 12.0;
+  summary.plans = 18;
+  summary.random_steps = 2;
+  summary.wall_s = 3.0;
+  return summary;
+}
+
+TEST(RunSummaryTest, Json) {
+  EXPECT_EQ(RunSummaryToJson(Example()),
+            "{\n"
+            "  \"system\": \"pendulum\",\n"
+            "  \"strategy\": \"rec\",\n"
+            "  \"session\": \"sessions/a\\\"b\",\n"
+            "  \"samples\": 20,\n"
+            "  \"final_rmse\": 0.5,\n"
+            "  \"coverage_marginal\": 0.25,\n"
+            "  \"coverage_joint\": 0.125,\n"
+            "  \"rmse_history\": [[10, 1.5], [20, 0.5]],\n"
+            "  \"plan_ms_p50\": 12,\n"
+            "  \"plans\": 18,\n"
+            "  \"random_steps\": 2,\n"
+            "  \"wall_s\": 3\n"
+            "}\n");
+}
+
+TEST(RunSummaryTest, NullForMissingJointAndNonFinite) {
+  RunSummary summary = Example();
+  summary.coverage_joint.reset();
+  summary.final_rmse = NAN;
+  summary.rmse_history = {{10, INFINITY}};
+  const std::string json = RunSummaryToJson(summary);
+  EXPECT_NE(json.find("\"coverage_joint\": null"), std::string::npos);
+  EXPECT_NE(json.find("\"final_rmse\": null"), std::string::npos);
+  EXPECT_NE(json.find("[[10, null]]"), std::string::npos);
+}
+
+TEST(RunSummaryTest, RoundTripsDoublesExactly) {
+  RunSummary summary = Example();
+  summary.final_rmse = 0.1 + 0.2;
+  const std::string json = RunSummaryToJson(summary);
+  const size_t at = json.find("\"final_rmse\": ") + 14;
+  EXPECT_EQ(std::stod(json.substr(at)), 0.1 + 0.2);
+}
+
+TEST(RunSummaryTest, WritesFile) {
+  const std::string path = testing::TempDir() + "/run_summary_test.json";
+  ASSERT_TRUE(WriteRunSummary(Example(), path).ok());
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  EXPECT_EQ(text.str(), RunSummaryToJson(Example()));
+  EXPECT_FALSE(WriteRunSummary(Example(), "/nonexistent/dir/x.json").ok());
+}
+
+TEST(MedianTest, OddEvenEmpty) {
+  EXPECT_EQ(Median({}), 0.0);
+  EXPECT_EQ(Median({3.0}), 3.0);
+  EXPECT_EQ(Median({5.0, 1.0, 3.0}), 3.0);
+  EXPECT_EQ(Median({4.0, 1.0, 3.0, 2.0}), 2.5);
+}
+
+}  // namespace
+}  // namespace excite::sim
