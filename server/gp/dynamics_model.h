@@ -1,11 +1,10 @@
 #ifndef EXCITE_SERVER_GP_DYNAMICS_MODEL_H_
 #define EXCITE_SERVER_GP_DYNAMICS_MODEL_H_
 
+#include <Eigen/Dense>
 #include <memory>
 #include <optional>
 #include <vector>
-
-#include <Eigen/Dense>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -33,12 +32,22 @@ struct DynamicsModelOptions {
   bool fit_noise = true;
   // Fit kernel hyperparameters by ML-II; if false, `fixed` (state_dim entries)
   // is used as is.
+  // (Implementation note: `fixed` is in data units and used as is *including* its
+  // noise_variance; fit_noise is then ignored.)
   bool fit_kernel = true;
   std::vector<Hyperparameters> fixed;
   FitOptions fit;
+  // Threads for Refit(): outputs are fitted independently, on up to this many
+  // std::threads (only when there are >= 2 outputs and >= 64 samples). Results do
+  // not depend on it.
+  int fit_threads = 2;
   // Centre and half-width of each dimension of z used to normalise GP inputs
   // (z_dim entries each). A non-finite entry means "from the data at the first
   // fit". Typically from the region of interest and the input bounds.
+  // (Implementation: empty vectors mean all non-finite. From the data: centre =
+  // mean, half-width = max(sqrt(3) * std, 1e-3), i.e. the half-width of a uniform
+  // distribution with that std. Prefer finite values: a dimension that barely
+  // varies in the first samples gets a tiny half-width for good.)
   Eigen::VectorXd input_center;
   Eigen::VectorXd input_half_width;
 };
@@ -64,6 +73,7 @@ class DynamicsModel final : public DynamicsPredictor {
 
   // Refreshes the output standardisation, fits hyperparameters (if enabled,
   // warm-started from the previous fit) and refactorises: O(n^3) per output.
+  // The summary's wall_time_ms is the elapsed time of the whole call.
   // FAILED_PRECONDITION with fewer than 2 samples.
   absl::StatusOr<FitSummary> Refit();
 
@@ -73,7 +83,9 @@ class DynamicsModel final : public DynamicsPredictor {
   // True once Refit() succeeded: Predict() is valid.
   bool fitted() const;
 
-  // See DynamicsPredictor. Requires fitted(). Costs O(m n^2) per output
+  // See DynamicsPredictor. Requires fitted() and z.cols() == z_dim() (a
+  // precondition, not checked by status: if violated, outputs are resized and
+  // filled with NaN). Costs O(m n^2) per output
   // (O(m n (n + z_dim)) with Jacobians).
   void Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean, Eigen::MatrixXd* variance,
                std::vector<Eigen::MatrixXd>* mean_jacobians,
@@ -83,6 +95,8 @@ class DynamicsModel final : public DynamicsPredictor {
   Eigen::VectorXd noise_variances() const;
   // Per output, in data units; empty before the first Refit().
   std::vector<Hyperparameters> hyperparameters() const;
+  // Per output, of the targets in data units (the normalised LML minus
+  // n log(output std)); empty before the first Refit().
   std::vector<double> log_marginal_likelihoods() const;
 
   DynamicsModel(DynamicsModel&&) noexcept;

@@ -1,9 +1,8 @@
 #ifndef EXCITE_SERVER_GP_DYNAMICS_PREDICTOR_H_
 #define EXCITE_SERVER_GP_DYNAMICS_PREDICTOR_H_
 
-#include <vector>
-
 #include <Eigen/Dense>
+#include <vector>
 
 namespace excite::gp {
 

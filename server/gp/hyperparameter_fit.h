@@ -2,20 +2,51 @@
 #define EXCITE_SERVER_GP_HYPERPARAMETER_FIT_H_
 
 #include <cstdint>
+#include <optional>
+
+#include "absl/status/statusor.h"
+#include "server/gp/hyperparameters.h"
 
 namespace excite::gp {
 
-// Options of the ML-II fit (L-BFGS-B on log-parameters), on normalised data.
+class GpModel;
+
+// Options of the ML-II fit (L-BFGS-B on log-parameters), on normalised data
+// (inputs scaled by the half-width of their range, outputs standardised).
+//
+// Defaults, chosen for the receding-horizon loop which refits after every sample
+// (pendulum, n = 300, z_dim = 3, 2 outputs: see bench/gp): a cold fit (no previous
+// optimum) uses the data-driven default start plus `restarts` random starts; a
+// warm fit uses the previous optimum plus the data-driven default start (which
+// keeps the fit from staying in the flat "everything is noise" optimum) and
+// `warm_restarts` random starts (0: random starts are for the first fit only; the
+// optimum moves little from one sample to the next, and each start costs several
+// O(n^3) evaluations). `max_iterations` caps a start; the warm start typically
+// converges in a few iterations, the default start in 10-30.
 struct FitOptions {
   double min_lengthscale = 0.05;
   double max_lengthscale = 50.0;
   double min_signal_variance = 1e-2;
   double max_signal_variance = 1e2;
-  // Random restarts (log-uniform within the bounds) on top of the warm start and
-  // the data-driven default start.
+  // Bounds of a fitted noise variance (normalised units). The lower bound is
+  // max(floor given to the fit, min_noise_variance): the latter is a numerical
+  // guard (condition number of K); the upper bound is
+  // max(max_noise_variance, 10 * floor).
+  double min_noise_variance = 1e-6;
+  double max_noise_variance = 10.0;
+  // Random restarts (log-uniform within the bounds) on top of the data-driven
+  // default start, when there is no warm start.
   int restarts = 2;
+  // Random restarts when a warm start is available.
+  int warm_restarts = 0;
   // L-BFGS-B iterations per start.
   int max_iterations = 60;
+  // The objective is -LML / max(1, n) (scale-free). A start stops when its
+  // projected gradient (max-norm, log-parameters) is below gradient_tolerance or
+  // when the objective changed by less than
+  // function_tolerance * max(1, |objective|) over one iteration.
+  double gradient_tolerance = 1e-5;
+  double function_tolerance = 1e-8;
   uint64_t seed = 0;
 };
 
@@ -26,7 +57,21 @@ struct FitSummary {
   int iterations = 0;
   int failed_starts = 0;  // line-search failures; their best iterate is kept
   double wall_time_ms = 0.0;
+  // Added: objective evaluations (each an O(n^3) factorisation + gradient).
+  int evaluations = 0;
 };
+
+// Fits the hyperparameters of `model` (which holds the normalised data) by
+// maximising the log marginal likelihood with L-BFGS-B on log-parameters, from
+// the starts described at FitOptions. If `fit_noise`, the noise variance is
+// fitted within [max(noise_variance, min_noise_variance), upper bound]; otherwise
+// it is fixed at `noise_variance` and left out of the optimisation vector.
+// `warm_start` (if any) is clamped into the bounds. On return the model is
+// factorised with the best hyperparameters found. Deterministic for a given
+// options.seed. INVALID_ARGUMENT on bad options or an empty model.
+absl::StatusOr<FitSummary> FitHyperparameters(
+    const FitOptions& options, double noise_variance, bool fit_noise,
+    const std::optional<Hyperparameters>& warm_start, GpModel* model);
 
 }  // namespace excite::gp
 

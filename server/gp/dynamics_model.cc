@@ -1,0 +1,389 @@
+#include "server/gp/dynamics_model.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
+#include "server/gp/gp_model.h"
+#include "server/gp/hyperparameter_fit.h"
+#include "server/gp/hyperparameters.h"
+
+namespace excite::gp {
+namespace {
+
+constexpr double kMinDataHalfWidth = 1e-3;
+constexpr int kMinSamplesForThreads = 64;
+
+uint64_t SplitMix64(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ULL;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+  return x ^ (x >> 31);
+}
+
+bool PositiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
+
+// Data units <-> normalised units of one output.
+Hyperparameters ToNormalised(const Hyperparameters& h, const Eigen::VectorXd& half_width,
+                             double out_std) {
+  const double s2 = out_std * out_std;
+  Hyperparameters n;
+  n.signal_variance = h.signal_variance / s2;
+  n.lengthscales = h.lengthscales.cwiseQuotient(half_width);
+  n.noise_variance = h.noise_variance / s2;
+  return n;
+}
+
+Hyperparameters ToData(const Hyperparameters& h, const Eigen::VectorXd& half_width,
+                       double out_std) {
+  const double s2 = out_std * out_std;
+  Hyperparameters d;
+  d.signal_variance = h.signal_variance * s2;
+  d.lengthscales = h.lengthscales.cwiseProduct(half_width);
+  d.noise_variance = h.noise_variance * s2;
+  return d;
+}
+
+}  // namespace
+
+struct DynamicsModel::State {
+  DynamicsModelOptions options;
+  int state_dim = 0;
+  int input_dim = 0;
+  int z_dim = 0;
+  // All data, in data units: inputs z = (x, u) and targets (delta or next).
+  Eigen::MatrixXd z;
+  Eigen::MatrixXd targets;
+  int samples_since_fit = 0;
+  int refits = 0;
+  bool fitted = false;
+  // Input normalisation (resolved at the first Refit()).
+  bool normalisation_resolved = false;
+  Eigen::VectorXd center;
+  Eigen::VectorXd half_width;
+  // Output standardisation (refreshed at every Refit()).
+  Eigen::VectorXd out_mean;
+  Eigen::VectorXd out_std;
+  std::vector<GpModel> gps;
+  std::vector<Hyperparameters> data_hyperparameters;
+
+  int n() const { return static_cast<int>(z.rows()); }
+  // Noise variance of a target when it is not fitted (data units).
+  double FixedNoise() const {
+    return options.target == Target::kDelta ? 2.0 * options.measurement_noise_variance
+                                            : options.measurement_noise_variance;
+  }
+  Eigen::MatrixXd Normalise(const Eigen::MatrixXd& raw) const {
+    return (raw.rowwise() - center.transpose()) * half_width.cwiseInverse().asDiagonal();
+  }
+};
+
+absl::StatusOr<DynamicsModel> DynamicsModel::Create(DynamicsModelOptions options) {
+  if (options.state_dim < 1 || options.input_dim < 0) {
+    return absl::InvalidArgumentError("state_dim must be >= 1 and input_dim >= 0");
+  }
+  const int z_dim = options.state_dim + options.input_dim;
+  if (!PositiveFinite(options.measurement_noise_variance)) {
+    return absl::InvalidArgumentError(
+        "measurement_noise_variance must be finite and positive");
+  }
+  for (Eigen::VectorXd* v : {&options.input_center, &options.input_half_width}) {
+    if (v->size() == 0) {
+      *v = Eigen::VectorXd::Constant(z_dim, std::numeric_limits<double>::quiet_NaN());
+    } else if (v->size() != z_dim) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "input_center and input_half_width need z_dim = ", z_dim, " entries"));
+    }
+  }
+  for (int i = 0; i < z_dim; ++i) {
+    const double h = options.input_half_width(i);
+    if (std::isfinite(h) && !(h > 0.0)) {
+      return absl::InvalidArgumentError("input_half_width entries must be positive");
+    }
+  }
+  if (!options.fit_kernel) {
+    if (static_cast<int>(options.fixed.size()) != options.state_dim) {
+      return absl::InvalidArgumentError("fit_kernel=false needs state_dim fixed entries");
+    }
+    for (const Hyperparameters& h : options.fixed) {
+      if (h.lengthscales.size() != z_dim || !PositiveFinite(h.signal_variance) ||
+          !PositiveFinite(h.noise_variance) || !h.lengthscales.allFinite() ||
+          !(h.lengthscales.array() > 0.0).all()) {
+        return absl::InvalidArgumentError(
+            "fixed hyperparameters need z_dim positive lengthscales and positive "
+            "variances");
+      }
+    }
+  }
+  if (options.fit_threads < 1) options.fit_threads = 1;
+  auto state = std::make_unique<State>();
+  state->state_dim = options.state_dim;
+  state->input_dim = options.input_dim;
+  state->z_dim = z_dim;
+  state->z.resize(0, z_dim);
+  state->targets.resize(0, options.state_dim);
+  state->options = std::move(options);
+  return DynamicsModel(std::move(state));
+}
+
+DynamicsModel::DynamicsModel(std::unique_ptr<State> state) : state_(std::move(state)) {}
+DynamicsModel::DynamicsModel(DynamicsModel&&) noexcept = default;
+DynamicsModel& DynamicsModel::operator=(DynamicsModel&&) noexcept = default;
+DynamicsModel::~DynamicsModel() = default;
+
+int DynamicsModel::state_dim() const { return state_->state_dim; }
+int DynamicsModel::input_dim() const { return state_->input_dim; }
+int DynamicsModel::sample_count() const { return state_->n(); }
+int DynamicsModel::samples_since_fit() const { return state_->samples_since_fit; }
+bool DynamicsModel::fitted() const { return state_->fitted; }
+
+absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
+                                       const Eigen::MatrixXd& inputs,
+                                       const Eigen::MatrixXd& next_states) {
+  State& s = *state_;
+  const Eigen::Index m = states.rows();
+  if (states.cols() != s.state_dim || next_states.cols() != s.state_dim ||
+      inputs.cols() != s.input_dim || inputs.rows() != m || next_states.rows() != m) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("expected states m x ", s.state_dim, ", inputs m x ", s.input_dim,
+                     ", next_states m x ", s.state_dim, "; got ", states.rows(), "x",
+                     states.cols(), ", ", inputs.rows(), "x", inputs.cols(), ", ",
+                     next_states.rows(), "x", next_states.cols()));
+  }
+  if (!states.allFinite() || !inputs.allFinite() || !next_states.allFinite()) {
+    return absl::InvalidArgumentError("samples contain non-finite values");
+  }
+  if (m == 0) return absl::OkStatus();
+  Eigen::MatrixXd z(m, s.z_dim);
+  z << states, inputs;
+  const Eigen::MatrixXd t = s.options.target == Target::kDelta
+                                ? Eigen::MatrixXd(next_states - states)
+                                : next_states;
+  const int n = s.n();
+  s.z.conservativeResize(n + m, Eigen::NoChange);
+  s.z.bottomRows(m) = z;
+  s.targets.conservativeResize(n + m, Eigen::NoChange);
+  s.targets.bottomRows(m) = t;
+  s.samples_since_fit += static_cast<int>(m);
+  if (!s.fitted) return absl::OkStatus();
+  // O(n^2) row appends with the current normalisation and hyperparameters.
+  const Eigen::MatrixXd zn = s.Normalise(z);
+  for (int j = 0; j < s.state_dim; ++j) {
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const double y = (t(i, j) - s.out_mean(j)) / s.out_std(j);
+      if (absl::Status st = s.gps[j].AddSample(zn.row(i).transpose(), y); !st.ok()) {
+        s.fitted = false;  // Refit() rebuilds from the stored data.
+        return st;
+      }
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<FitSummary> DynamicsModel::Refit() {
+  const auto t0 = std::chrono::steady_clock::now();
+  State& s = *state_;
+  const int n = s.n();
+  if (n < 2) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("Refit needs at least 2 samples, have ", n));
+  }
+  if (!s.normalisation_resolved) {
+    const Eigen::RowVectorXd mean = s.z.colwise().mean();
+    const Eigen::RowVectorXd std =
+        ((s.z.rowwise() - mean).colwise().squaredNorm() / n).cwiseSqrt();
+    for (int i = 0; i < s.z_dim; ++i) {
+      if (!std::isfinite(s.options.input_center(i))) s.options.input_center(i) = mean(i);
+      if (!std::isfinite(s.options.input_half_width(i))) {
+        s.options.input_half_width(i) =
+            std::max(std::sqrt(3.0) * std(i), kMinDataHalfWidth);
+      }
+    }
+    s.center = s.options.input_center;
+    s.half_width = s.options.input_half_width;
+    s.normalisation_resolved = true;
+  }
+  // Output standardisation, floored at the measurement noise std so that a
+  // (nearly) constant output does not blow up.
+  const Eigen::VectorXd out_mean = s.targets.colwise().mean().transpose();
+  Eigen::VectorXd out_std =
+      ((s.targets.rowwise() - out_mean.transpose()).colwise().squaredNorm() / n)
+          .cwiseSqrt()
+          .transpose();
+  out_std = out_std.cwiseMax(std::sqrt(s.options.measurement_noise_variance));
+  const Eigen::MatrixXd zn = s.Normalise(s.z);
+
+  const int outputs = s.state_dim;
+  std::vector<GpModel> gps(outputs);
+  std::vector<absl::StatusOr<FitSummary>> results(outputs, FitSummary{});
+  auto fit_output = [&](int j) {
+    const double var = out_std(j) * out_std(j);
+    Eigen::VectorXd y = (s.targets.col(j).array() - out_mean(j)) / out_std(j);
+    if (!s.options.fit_kernel) {
+      const Hyperparameters h =
+          ToNormalised(s.options.fixed[j], s.half_width, out_std(j));
+      absl::Status st = gps[j].Reset(zn, std::move(y), h);
+      results[j] = st.ok() ? absl::StatusOr<FitSummary>(FitSummary{}) : st;
+      return;
+    }
+    const double noise =
+        (s.options.fit_noise ? s.options.measurement_noise_variance : s.FixedNoise()) /
+        var;
+    std::optional<Hyperparameters> warm;
+    Hyperparameters initial;
+    if (j < static_cast<int>(s.data_hyperparameters.size())) {
+      warm = ToNormalised(s.data_hyperparameters[j], s.half_width, out_std(j));
+      if (!s.options.fit_noise) warm->noise_variance = noise;
+      initial = *warm;
+    } else {
+      initial.signal_variance = 1.0;
+      initial.lengthscales = Eigen::VectorXd::Ones(s.z_dim);
+      initial.noise_variance = std::max(noise, 1e-2);
+      if (!s.options.fit_noise) initial.noise_variance = noise;
+    }
+    if (absl::Status st = gps[j].Reset(zn, std::move(y), initial); !st.ok()) {
+      results[j] = st;
+      return;
+    }
+    FitOptions fit = s.options.fit;
+    fit.seed = SplitMix64(s.options.fit.seed ^
+                          SplitMix64(static_cast<uint64_t>(s.refits) * 1024u + j));
+    results[j] = FitHyperparameters(fit, noise, s.options.fit_noise, warm, &gps[j]);
+  };
+  const int threads = (outputs >= 2 && n >= kMinSamplesForThreads)
+                          ? std::min(s.options.fit_threads, outputs)
+                          : 1;
+  if (threads <= 1) {
+    for (int j = 0; j < outputs; ++j) fit_output(j);
+  } else {
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) {
+      pool.emplace_back([&, t] {
+        for (int j = t; j < outputs; j += threads) fit_output(j);
+      });
+    }
+    for (int j = 0; j < outputs; j += threads) fit_output(j);
+    for (std::thread& th : pool) th.join();
+  }
+
+  FitSummary summary;
+  summary.fitted = s.options.fit_kernel;
+  for (const absl::StatusOr<FitSummary>& r : results) {
+    if (!r.ok()) return r.status();  // the previous model stays in place
+    summary.starts += r->starts;
+    summary.iterations += r->iterations;
+    summary.failed_starts += r->failed_starts;
+    summary.evaluations += r->evaluations;
+  }
+  s.gps = std::move(gps);
+  s.out_mean = out_mean;
+  s.out_std = out_std;
+  s.data_hyperparameters.clear();
+  for (int j = 0; j < outputs; ++j) {
+    s.data_hyperparameters.push_back(
+        ToData(s.gps[j].hyperparameters(), s.half_width, out_std(j)));
+  }
+  s.fitted = true;
+  s.samples_since_fit = 0;
+  ++s.refits;
+  summary.wall_time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+          .count();
+  return summary;
+}
+
+void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
+                            Eigen::MatrixXd* variance,
+                            std::vector<Eigen::MatrixXd>* mean_jacobians,
+                            std::vector<Eigen::MatrixXd>* variance_jacobians) const {
+  const State& s = *state_;
+  const Eigen::Index m = z.rows();
+  const int sd = s.state_dim;
+  const int zd = s.z_dim;
+  if (mean != nullptr) mean->resize(m, sd);
+  if (variance != nullptr) variance->resize(m, sd);
+  if (mean_jacobians != nullptr) mean_jacobians->assign(m, Eigen::MatrixXd(sd, zd));
+  if (variance_jacobians != nullptr)
+    variance_jacobians->assign(m, Eigen::MatrixXd(sd, zd));
+  if (!s.fitted || z.cols() != zd) {  // precondition violated: NaN everywhere
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    if (mean != nullptr) mean->setConstant(nan);
+    if (variance != nullptr) variance->setConstant(nan);
+    if (mean_jacobians != nullptr) {
+      for (Eigen::MatrixXd& j : *mean_jacobians) j.setConstant(nan);
+    }
+    if (variance_jacobians != nullptr) {
+      for (Eigen::MatrixXd& j : *variance_jacobians) j.setConstant(nan);
+    }
+    return;
+  }
+  const Eigen::MatrixXd zn = s.Normalise(z);
+  const Eigen::RowVectorXd inv_h = s.half_width.cwiseInverse().transpose();
+  const bool delta = s.options.target == Target::kDelta;
+  Eigen::VectorXd mu, var;
+  Eigen::MatrixXd dmu, dvar;
+  for (int j = 0; j < sd; ++j) {
+    const double sj = s.out_std(j);
+    s.gps[j].Predict(zn, mean != nullptr ? &mu : nullptr,
+                     variance != nullptr ? &var : nullptr,
+                     mean_jacobians != nullptr ? &dmu : nullptr,
+                     variance_jacobians != nullptr ? &dvar : nullptr);
+    if (mean != nullptr) {
+      mean->col(j) = (s.out_mean(j) + sj * mu.array()).matrix();
+      if (delta) mean->col(j) += z.col(j);
+    }
+    if (variance != nullptr) variance->col(j) = sj * sj * var;
+    for (Eigen::Index i = 0; i < m; ++i) {
+      if (mean_jacobians != nullptr) {
+        (*mean_jacobians)[i].row(j) = sj * dmu.row(i).cwiseProduct(inv_h);
+        if (delta) (*mean_jacobians)[i](j, j) += 1.0;
+      }
+      if (variance_jacobians != nullptr) {
+        (*variance_jacobians)[i].row(j) = sj * sj * dvar.row(i).cwiseProduct(inv_h);
+      }
+    }
+  }
+}
+
+Eigen::VectorXd DynamicsModel::noise_variances() const {
+  const State& s = *state_;
+  Eigen::VectorXd out(s.state_dim);
+  for (int j = 0; j < s.state_dim; ++j) {
+    if (j < static_cast<int>(s.data_hyperparameters.size())) {
+      out(j) = s.data_hyperparameters[j].noise_variance;
+    } else if (!s.options.fit_kernel) {
+      out(j) = s.options.fixed[j].noise_variance;
+    } else {
+      out(j) = s.FixedNoise();
+    }
+  }
+  return out;
+}
+
+std::vector<Hyperparameters> DynamicsModel::hyperparameters() const {
+  return state_->data_hyperparameters;
+}
+
+std::vector<double> DynamicsModel::log_marginal_likelihoods() const {
+  const State& s = *state_;
+  std::vector<double> out;
+  if (!s.fitted) return out;
+  for (int j = 0; j < s.state_dim; ++j) {
+    out.push_back(s.gps[j].log_marginal_likelihood() -
+                  s.gps[j].size() * std::log(s.out_std(j)));
+  }
+  return out;
+}
+
+}  // namespace excite::gp

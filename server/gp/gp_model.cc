@@ -1,0 +1,214 @@
+#include "server/gp/gp_model.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "server/gp/kernel.h"
+
+namespace excite::gp {
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093454835606594728112;
+
+bool Valid(double v) { return std::isfinite(v) && v > 0.0; }
+
+absl::Status CheckHyperparameters(const Hyperparameters& h, Eigen::Index dim) {
+  if (h.lengthscales.size() != dim) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("expected ", dim, " lengthscales, got ", h.lengthscales.size()));
+  }
+  if (!Valid(h.signal_variance) || !Valid(h.noise_variance)) {
+    return absl::InvalidArgumentError("variances must be finite and positive");
+  }
+  for (Eigen::Index i = 0; i < dim; ++i) {
+    if (!Valid(h.lengthscales(i))) {
+      return absl::InvalidArgumentError("lengthscales must be finite and positive");
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status GpModel::Reset(Eigen::MatrixXd x, Eigen::VectorXd y,
+                            const Hyperparameters& hyperparameters) {
+  if (x.rows() != y.size()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("x has ", x.rows(), " rows but y has ", y.size(), " entries"));
+  }
+  if (absl::Status s = CheckHyperparameters(hyperparameters, x.cols()); !s.ok()) return s;
+  if (!x.allFinite() || !y.allFinite()) {
+    return absl::InvalidArgumentError("non-finite data");
+  }
+  hyperparameters_ = hyperparameters;
+  x_ = std::move(x);
+  y_ = std::move(y);
+  n_ = static_cast<int>(y_.size());
+  x_scaled_ = ScaleInputs(x_, hyperparameters_.lengthscales);
+  return Factorise();
+}
+
+absl::Status GpModel::SetHyperparameters(const Hyperparameters& hyperparameters) {
+  if (absl::Status s = CheckHyperparameters(hyperparameters, x_.cols()); !s.ok())
+    return s;
+  hyperparameters_ = hyperparameters;
+  x_scaled_ = ScaleInputs(x_, hyperparameters_.lengthscales);
+  return Factorise();
+}
+
+absl::Status GpModel::Factorise() {
+  const int n = n_;
+  if (l_.rows() < n) {
+    const Eigen::Index capacity = std::max<Eigen::Index>(16, n + n / 4 + 8);
+    l_.resize(capacity, capacity);
+  }
+  const double sf2 = hyperparameters_.signal_variance;
+  const double sn2 = hyperparameters_.noise_variance;
+  const Eigen::MatrixXd k = Covariance(x_scaled_, sf2);
+  double jitter = 0.0;
+  for (int attempt = 0; attempt < 10; ++attempt) {
+    auto block = l_.topLeftCorner(n, n);
+    block.triangularView<Eigen::Lower>() = k;
+    block.diagonal().array() += sn2 + jitter;
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> llt(block);
+    bool ok = llt.info() == Eigen::Success;
+    if (ok) {
+      const auto diag = block.diagonal();
+      ok = diag.allFinite() && (diag.array() > 0.0).all();
+    }
+    if (ok) {
+      beta_ = LowerFactor().solve(y_);
+      alpha_ = UpperFactor().solve(beta_);
+      ok = beta_.allFinite() && alpha_.allFinite();
+    }
+    if (ok) {
+      log_det_ = 2.0 * block.diagonal().array().log().sum();
+      jitter_ = jitter;
+      return absl::OkStatus();
+    }
+    jitter = jitter == 0.0 ? 1e-10 * sf2 : 10.0 * jitter;
+  }
+  n_ = 0;  // leave a consistent (empty) model behind
+  x_.resize(0, x_.cols());
+  x_scaled_.resize(0, x_.cols());
+  y_.resize(0);
+  beta_.resize(0);
+  alpha_.resize(0);
+  log_det_ = 0.0;
+  return absl::InternalError("Cholesky factorisation failed even with jitter");
+}
+
+absl::Status GpModel::AddSample(const Eigen::VectorXd& x, double y) {
+  if (x.size() != x_.cols() || x.size() != hyperparameters_.lengthscales.size()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("sample has ", x.size(), " inputs, expected ", x_.cols()));
+  }
+  if (!x.allFinite() || !std::isfinite(y)) {
+    return absl::InvalidArgumentError("non-finite sample");
+  }
+  const int n = n_;
+  const Eigen::RowVectorXd s = x.cwiseQuotient(hyperparameters_.lengthscales).transpose();
+  // Append the data first; both paths below need it.
+  x_.conservativeResize(n + 1, Eigen::NoChange);
+  x_.row(n) = x.transpose();
+  x_scaled_.conservativeResize(n + 1, Eigen::NoChange);
+  x_scaled_.row(n) = s;
+  y_.conservativeResize(n + 1);
+  y_(n) = y;
+  if (n == 0) {
+    n_ = 1;
+    return Factorise();
+  }
+  const double sf2 = hyperparameters_.signal_variance;
+  Eigen::VectorXd l = CrossCovariance(x_scaled_.topRows(n), s, sf2);
+  LowerFactor().solveInPlace(l);
+  const double d2 = sf2 + hyperparameters_.noise_variance + jitter_ - l.squaredNorm();
+  if (!(d2 > 0.0) || !std::isfinite(d2) || !l.allFinite()) {
+    n_ = n + 1;
+    return Factorise();
+  }
+  if (l_.rows() < n + 1) {
+    const Eigen::Index capacity = std::max<Eigen::Index>(16, 2 * (n + 1));
+    Eigen::MatrixXd grown(capacity, capacity);
+    grown.topLeftCorner(n, n).triangularView<Eigen::Lower>() =
+        l_.topLeftCorner(n, n).triangularView<Eigen::Lower>();
+    l_.swap(grown);
+  }
+  const double d = std::sqrt(d2);
+  l_.row(n).head(n) = l.transpose();
+  l_(n, n) = d;
+  beta_.conservativeResize(n + 1);
+  beta_(n) = (y - l.dot(beta_.head(n))) / d;
+  log_det_ += std::log(d2);
+  n_ = n + 1;
+  alpha_ = UpperFactor().solve(beta_);
+  return absl::OkStatus();
+}
+
+Eigen::MatrixXd GpModel::cholesky() const {
+  Eigen::MatrixXd l = Eigen::MatrixXd::Zero(n_, n_);
+  l.triangularView<Eigen::Lower>() = l_.topLeftCorner(n_, n_);
+  return l;
+}
+
+double GpModel::log_marginal_likelihood() const {
+  return -0.5 * beta_.squaredNorm() - 0.5 * log_det_ - 0.5 * n_ * kLog2Pi;
+}
+
+Eigen::VectorXd GpModel::LogMarginalLikelihoodGradient() const {
+  const int n = n_;
+  const Eigen::Index d = x_.cols();
+  Eigen::VectorXd grad(d + 2);
+  if (n == 0) return grad.setZero();
+  // K^-1 = L^-T L^-1; L^-1 is exactly lower triangular, so a triangular product.
+  const Eigen::MatrixXd l_inv = LowerFactor().solve(Eigen::MatrixXd::Identity(n, n));
+  Eigen::MatrixXd w(n, n);
+  w.noalias() = l_inv.transpose().triangularView<Eigen::Upper>() * l_inv;
+  w = alpha_ * alpha_.transpose() - w;  // W = alpha alpha^T - K^-1
+  const Eigen::MatrixXd a =
+      w.cwiseProduct(Covariance(x_scaled_, hyperparameters_.signal_variance));
+  grad(0) = 0.5 * a.sum();
+  grad.segment(1, d) = LogLengthscaleGradient(a, x_scaled_);
+  grad(d + 1) = 0.5 * hyperparameters_.noise_variance * w.trace();
+  return grad;
+}
+
+void GpModel::Predict(const Eigen::MatrixXd& xs, Eigen::VectorXd* mean,
+                      Eigen::VectorXd* variance, Eigen::MatrixXd* mean_jacobian,
+                      Eigen::MatrixXd* variance_jacobian) const {
+  const Eigen::VectorXd& ls = hyperparameters_.lengthscales;
+  const double sf2 = hyperparameters_.signal_variance;
+  const Eigen::MatrixXd s = ScaleInputs(xs, ls);
+  const Eigen::MatrixXd ks = CrossCovariance(s, x_scaled_, sf2);  // m x n
+  const Eigen::VectorXd inv_l2 = ls.cwiseAbs2().cwiseInverse();
+  if (mean != nullptr) *mean = ks * alpha_;
+  if (mean_jacobian != nullptr) {
+    // d mean_i / d xs_il = -sum_j k_ij alpha_j (xs_il - x_jl) / l_l^2.
+    const Eigen::MatrixXd c = ks * alpha_.asDiagonal();
+    Eigen::MatrixXd cx = c * x_;
+    *mean_jacobian = (cx - xs.cwiseProduct(c.rowwise().sum().replicate(1, xs.cols()))) *
+                     inv_l2.asDiagonal();
+  }
+  if (variance == nullptr && variance_jacobian == nullptr) return;
+  Eigen::MatrixXd v = ks.transpose();  // n x m
+  LowerFactor().solveInPlace(v);       // V = L \ K*^T
+  if (variance != nullptr) {
+    *variance =
+        (sf2 - v.colwise().squaredNorm().array()).cwiseMax(0.0).matrix().transpose();
+  }
+  if (variance_jacobian != nullptr) {
+    // w = L^T \ V = K^-1 K*^T; d var_i / d xs_il = 2 sum_j k_ij w_ji (xs_il - x_jl) /
+    // l_l^2.
+    UpperFactor().solveInPlace(v);
+    const Eigen::MatrixXd c = ks.cwiseProduct(v.transpose());
+    *variance_jacobian =
+        2.0 * (xs.cwiseProduct(c.rowwise().sum().replicate(1, xs.cols())) - c * x_) *
+        inv_l2.asDiagonal();
+  }
+}
+
+}  // namespace excite::gp

@@ -1,0 +1,315 @@
+#include "server/gp/dynamics_model.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "server/gp/hyperparameters.h"
+#include "tests/gp/reference_gp.h"
+
+namespace excite::gp {
+namespace {
+
+using testing::ReferenceGp;
+using testing::RelErr;
+
+constexpr double kNoiseVar = 1e-3;
+
+// A damped pendulum, state (angle, rate), input torque; dt = 0.1.
+Eigen::Vector2d Step(const Eigen::Vector2d& x, double u) {
+  const double dt = 0.1;
+  return {x(0) + dt * x(1), x(1) + dt * (-9.81 * std::sin(x(0)) - 0.2 * x(1) + u)};
+}
+
+struct Transitions {
+  Eigen::MatrixXd x, u, next;
+};
+
+Transitions MakeTransitions(int n, uint64_t seed, double noise_var = kNoiseVar) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> a(-3.0, 3.0), r(-6.0, 6.0), t(-2.0, 2.0);
+  std::normal_distribution<double> e(0.0, std::sqrt(noise_var));
+  Transitions d{Eigen::MatrixXd(n, 2), Eigen::MatrixXd(n, 1), Eigen::MatrixXd(n, 2)};
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector2d x(a(rng), r(rng));
+    d.u(i, 0) = t(rng);
+    const Eigen::Vector2d y = Step(x, d.u(i, 0));
+    d.x.row(i) = (x + Eigen::Vector2d(e(rng), e(rng))).transpose();
+    d.next.row(i) = (y + Eigen::Vector2d(e(rng), e(rng))).transpose();
+  }
+  return d;
+}
+
+DynamicsModelOptions BaseOptions(Target target) {
+  DynamicsModelOptions o;
+  o.state_dim = 2;
+  o.input_dim = 1;
+  o.target = target;
+  o.measurement_noise_variance = kNoiseVar;
+  o.input_center = Eigen::Vector3d(0.0, 0.0, 0.0);
+  o.input_half_width = Eigen::Vector3d(3.0, 6.0, 2.0);
+  return o;
+}
+
+std::vector<Hyperparameters> DataUnitHyperparameters() {
+  Hyperparameters a, b;
+  a.signal_variance = 0.5;
+  a.lengthscales = Eigen::Vector3d(2.0, 4.0, 3.0);
+  a.noise_variance = 2e-3;
+  b.signal_variance = 2.0;
+  b.lengthscales = Eigen::Vector3d(1.5, 6.0, 2.5);
+  b.noise_variance = 3e-3;
+  return {a, b};
+}
+
+Eigen::MatrixXd Z(const Transitions& d) {
+  Eigen::MatrixXd z(d.x.rows(), 3);
+  z << d.x, d.u;
+  return z;
+}
+
+// Fixed data-unit hyperparameters: the model equals a reference GP on raw z and
+// raw targets whose constant prior mean is the targets' mean at the last Refit().
+TEST(DynamicsModelTest, FixedHyperparametersMatchReferenceInDataUnits) {
+  for (Target target : {Target::kDelta, Target::kNext}) {
+    DynamicsModelOptions o = BaseOptions(target);
+    o.fit_kernel = false;
+    o.fixed = DataUnitHyperparameters();
+    absl::StatusOr<DynamicsModel> model = DynamicsModel::Create(o);
+    ASSERT_TRUE(model.ok()) << model.status();
+    const Transitions d = MakeTransitions(40, 1);
+    ASSERT_TRUE(
+        model->AddSamples(d.x.topRows(30), d.u.topRows(30), d.next.topRows(30)).ok());
+    const absl::StatusOr<FitSummary> s = model->Refit();
+    ASSERT_TRUE(s.ok()) << s.status();
+    EXPECT_FALSE(s->fitted);
+    // Appended after the fit: same normalisation (prior mean of the first 30).
+    ASSERT_TRUE(
+        model->AddSamples(d.x.bottomRows(10), d.u.bottomRows(10), d.next.bottomRows(10))
+            .ok());
+    EXPECT_EQ(model->samples_since_fit(), 10);
+    EXPECT_EQ(model->sample_count(), 40);
+    const std::vector<Hyperparameters> reported = model->hyperparameters();
+    ASSERT_EQ(reported.size(), 2u);
+    const Eigen::MatrixXd targets =
+        target == Target::kDelta ? Eigen::MatrixXd(d.next - d.x) : d.next;
+    const Transitions test = MakeTransitions(7, 2);
+    const Eigen::MatrixXd zt = Z(test);
+    Eigen::MatrixXd mean, var;
+    model->Predict(zt, &mean, &var, nullptr, nullptr);
+    for (int j = 0; j < 2; ++j) {
+      EXPECT_LT(RelErr(reported[j].signal_variance, o.fixed[j].signal_variance), 1e-12);
+      EXPECT_LT((reported[j].lengthscales - o.fixed[j].lengthscales).norm(), 1e-12);
+      EXPECT_LT(RelErr(reported[j].noise_variance, o.fixed[j].noise_variance), 1e-12);
+      EXPECT_LT(RelErr(model->noise_variances()(j), o.fixed[j].noise_variance), 1e-12);
+      const double prior_mean = targets.col(j).head(30).mean();
+      const ReferenceGp ref(Z(d), targets.col(j), o.fixed[j], prior_mean);
+      for (int i = 0; i < 7; ++i) {
+        const double expected =
+            ref.Mean(zt.row(i)) + (target == Target::kDelta ? zt(i, j) : 0.0);
+        EXPECT_LT(RelErr(mean(i, j), expected), 1e-8);
+        EXPECT_LT(RelErr(var(i, j), ref.Variance(zt.row(i))), 1e-8);
+      }
+    }
+  }
+}
+
+// Through the normalisation, in data units, for both targets. With fixed,
+// well-conditioned hyperparameters (noise 2e-3..3e-3 against signal 0.5..2) the
+// tolerance is 1e-6 relative. A fitted model here has a normalised noise of ~1e-5,
+// so the latent variance (~1e-4 of the signal) is computed as a difference of
+// nearly equal numbers: finite differences of it are only good to ~1e-5, and the
+// tolerances are 1e-5 (mean, large alpha) and 1e-4 (variance) there.
+TEST(DynamicsModelTest, JacobiansMatchFiniteDifferencesInDataUnits) {
+  for (bool fit : {false, true})
+    for (Target target : {Target::kDelta, Target::kNext}) {
+      SCOPED_TRACE(::testing::Message()
+                   << "fit " << fit << " delta " << (target == Target::kDelta));
+      DynamicsModelOptions o = BaseOptions(target);
+      o.input_half_width(1) = std::numeric_limits<double>::quiet_NaN();  // from data
+      o.input_center(0) = 0.3;
+      o.fit_kernel = fit;
+      if (!fit) o.fixed = DataUnitHyperparameters();
+      const double var_tol = fit ? 1e-4 : 1e-6;
+      const double mean_tol = fit ? 1e-5 : 1e-6;
+      absl::StatusOr<DynamicsModel> model = DynamicsModel::Create(o);
+      ASSERT_TRUE(model.ok());
+      const Transitions d = MakeTransitions(60, 3);
+      ASSERT_TRUE(model->AddSamples(d.x, d.u, d.next).ok());
+      ASSERT_TRUE(model->Refit().ok());
+      const Eigen::MatrixXd z = Z(MakeTransitions(5, 4));
+      Eigen::MatrixXd mean, var;
+      std::vector<Eigen::MatrixXd> dmean, dvar;
+      model->Predict(z, &mean, &var, &dmean, &dvar);
+      ASSERT_EQ(dmean.size(), 5u);
+      // Fourth-order central differences (error O(eps^4)); a fitted model with a
+      // small noise has large alpha, so a smaller step would drown in round-off.
+      const double eps = 1e-3;
+      for (int l = 0; l < 3; ++l) {
+        Eigen::MatrixXd fm[4], fv[4];
+        const double steps[4] = {-2 * eps, -eps, eps, 2 * eps};
+        for (int k = 0; k < 4; ++k) {
+          Eigen::MatrixXd zk = z;
+          zk.col(l).array() += steps[k];
+          model->Predict(zk, &fm[k], &fv[k], nullptr, nullptr);
+        }
+        const Eigen::MatrixXd fdm = (fm[0] - 8 * fm[1] + 8 * fm[2] - fm[3]) / (12 * eps);
+        const Eigen::MatrixXd fdv = (fv[0] - 8 * fv[1] + 8 * fv[2] - fv[3]) / (12 * eps);
+        for (int i = 0; i < 5; ++i) {
+          for (int j = 0; j < 2; ++j) {
+            EXPECT_LT(RelErr(dmean[i](j, l), fdm(i, j), 1e-2), mean_tol)
+                << i << j << l << " " << dmean[i](j, l) << " vs " << fdm(i, j);
+            EXPECT_LT(RelErr(dvar[i](j, l), fdv(i, j), 1e-2 * var(i, j)), var_tol)
+                << i << j << l << " " << dvar[i](j, l) << " vs " << fdv(i, j);
+          }
+        }
+      }
+    }
+}
+
+TEST(DynamicsModelTest, FitLearnsPendulumAndIsDeterministic) {
+  DynamicsModelOptions o = BaseOptions(Target::kDelta);
+  o.fit.seed = 7;
+  absl::StatusOr<DynamicsModel> a = DynamicsModel::Create(o);
+  absl::StatusOr<DynamicsModel> b = DynamicsModel::Create(o);
+  ASSERT_TRUE(a.ok() && b.ok());
+  const Transitions d = MakeTransitions(200, 5);
+  for (DynamicsModel* m : {&*a, &*b}) {
+    ASSERT_TRUE(
+        m->AddSamples(d.x.topRows(150), d.u.topRows(150), d.next.topRows(150)).ok());
+    const absl::StatusOr<FitSummary> cold = m->Refit();
+    ASSERT_TRUE(cold.ok()) << cold.status();
+    EXPECT_EQ(cold->starts, 2 * (1 + o.fit.restarts));
+    ASSERT_TRUE(
+        m->AddSamples(d.x.bottomRows(50), d.u.bottomRows(50), d.next.bottomRows(50))
+            .ok());
+    const absl::StatusOr<FitSummary> warm = m->Refit();
+    ASSERT_TRUE(warm.ok());
+    EXPECT_EQ(warm->starts, 2 * (2 + o.fit.warm_restarts));
+  }
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_EQ(a->hyperparameters()[j].lengthscales, b->hyperparameters()[j].lengthscales);
+    EXPECT_EQ(a->hyperparameters()[j].noise_variance,
+              b->hyperparameters()[j].noise_variance);
+    // Noise variance in data units: floor = measurement noise variance, and a
+    // delta target carries about twice that.
+    EXPECT_GE(a->noise_variances()(j), kNoiseVar * (1 - 1e-9));
+    EXPECT_LT(a->noise_variances()(j), 20 * kNoiseVar);
+  }
+  // One-step predictions on fresh points, noise-free truth.
+  const Transitions test = MakeTransitions(100, 6, 0.0);
+  Eigen::MatrixXd mean, var;
+  a->Predict(Z(test), &mean, &var, nullptr, nullptr);
+  const double rmse = std::sqrt((mean - test.next).squaredNorm() / 100);
+  EXPECT_LT(rmse, 0.1);  // the rate changes by up to ~3 per step
+  EXPECT_TRUE((var.array() > 0).all());
+}
+
+// Scaling the state by 4 (exact in binary) scales the data-unit hyperparameters
+// (lengthscales of the state inputs, variances) and leaves normalised ones alone.
+TEST(DynamicsModelTest, HyperparametersAreInDataUnits) {
+  const Transitions d = MakeTransitions(50, 8);
+  DynamicsModelOptions o = BaseOptions(Target::kDelta);
+  DynamicsModelOptions o4 = o;
+  o4.input_half_width.head(2) *= 4.0;
+  o4.measurement_noise_variance *= 16.0;
+  absl::StatusOr<DynamicsModel> m = DynamicsModel::Create(o);
+  absl::StatusOr<DynamicsModel> m4 = DynamicsModel::Create(o4);
+  ASSERT_TRUE(m.ok() && m4.ok());
+  ASSERT_TRUE(m->AddSamples(d.x, d.u, d.next).ok());
+  ASSERT_TRUE(m4->AddSamples(4.0 * d.x, d.u, 4.0 * d.next).ok());
+  ASSERT_TRUE(m->Refit().ok());
+  ASSERT_TRUE(m4->Refit().ok());
+  for (int j = 0; j < 2; ++j) {
+    const Hyperparameters h = m->hyperparameters()[j];
+    const Hyperparameters h4 = m4->hyperparameters()[j];
+    EXPECT_LT(RelErr(h4.signal_variance, 16.0 * h.signal_variance), 1e-9);
+    EXPECT_LT(RelErr(h4.noise_variance, 16.0 * h.noise_variance), 1e-9);
+    EXPECT_LT(RelErr(h4.lengthscales(0), 4.0 * h.lengthscales(0)), 1e-9);
+    EXPECT_LT(RelErr(h4.lengthscales(1), 4.0 * h.lengthscales(1)), 1e-9);
+    EXPECT_LT(RelErr(h4.lengthscales(2), h.lengthscales(2)), 1e-9);
+  }
+}
+
+TEST(DynamicsModelTest, InvalidInputAddsNothing) {
+  absl::StatusOr<DynamicsModel> model =
+      DynamicsModel::Create(BaseOptions(Target::kDelta));
+  ASSERT_TRUE(model.ok());
+  const Transitions d = MakeTransitions(5, 9);
+  EXPECT_EQ(model->AddSamples(d.x, d.u, d.next.leftCols(1)).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(model->AddSamples(d.x.topRows(4), d.u, d.next).code(),
+            absl::StatusCode::kInvalidArgument);
+  Eigen::MatrixXd bad = d.u;
+  bad(2, 0) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(model->AddSamples(d.x, bad, d.next).code(),
+            absl::StatusCode::kInvalidArgument);
+  bad = d.next;
+  bad(0, 1) = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(model->AddSamples(d.x, d.u, bad).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(model->sample_count(), 0);
+  // Fewer than 2 samples: no fit. Predict before a fit is a precondition
+  // violation, reported as NaN.
+  ASSERT_TRUE(model->AddSamples(d.x.topRows(1), d.u.topRows(1), d.next.topRows(1)).ok());
+  EXPECT_EQ(model->Refit().status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_FALSE(model->fitted());
+  Eigen::MatrixXd mean, var;
+  model->Predict(Z(d), &mean, &var, nullptr, nullptr);
+  EXPECT_EQ(mean.rows(), 5);
+  EXPECT_TRUE(mean.array().isNaN().all());
+  // After a fit, bad samples still add nothing.
+  ASSERT_TRUE(model->AddSamples(d.x, d.u, d.next).ok());
+  ASSERT_TRUE(model->Refit().ok());
+  EXPECT_EQ(model->AddSamples(d.x, bad, d.next).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(model->sample_count(), 6);
+  EXPECT_EQ(model->samples_since_fit(), 0);
+  // Bad options.
+  DynamicsModelOptions o = BaseOptions(Target::kDelta);
+  o.measurement_noise_variance = 0.0;
+  EXPECT_EQ(DynamicsModel::Create(o).status().code(), absl::StatusCode::kInvalidArgument);
+  o = BaseOptions(Target::kDelta);
+  o.input_half_width = Eigen::Vector2d(1.0, 1.0);
+  EXPECT_EQ(DynamicsModel::Create(o).status().code(), absl::StatusCode::kInvalidArgument);
+  o = BaseOptions(Target::kDelta);
+  o.fit_kernel = false;
+  EXPECT_EQ(DynamicsModel::Create(o).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST(DynamicsModelTest, IllConditionedDataGivesFinitePredictions) {
+  DynamicsModelOptions o = BaseOptions(Target::kDelta);
+  o.measurement_noise_variance = 1e-12;
+  o.input_center.setConstant(std::numeric_limits<double>::quiet_NaN());
+  o.input_half_width.setConstant(std::numeric_limits<double>::quiet_NaN());
+  absl::StatusOr<DynamicsModel> model = DynamicsModel::Create(o);
+  ASSERT_TRUE(model.ok());
+  const Transitions d = MakeTransitions(4, 10, 0.0);
+  for (int k = 0; k < 25; ++k) ASSERT_TRUE(model->AddSamples(d.x, d.u, d.next).ok());
+  ASSERT_TRUE(model->Refit().ok());
+  ASSERT_TRUE(model->AddSamples(d.x, d.u, d.next).ok());  // row appends of duplicates
+  Eigen::MatrixXd z(6, 3);
+  z << Z(d), Z(MakeTransitions(2, 11));
+  Eigen::MatrixXd mean, var;
+  std::vector<Eigen::MatrixXd> dm, dv;
+  model->Predict(z, &mean, &var, &dm, &dv);
+  EXPECT_TRUE(mean.allFinite());
+  EXPECT_TRUE(var.allFinite());
+  for (int i = 0; i < 6; ++i) EXPECT_TRUE(dm[i].allFinite() && dv[i].allFinite());
+  // Same with a constant input (half-width from data hits its floor).
+  DynamicsModelOptions oc = o;
+  absl::StatusOr<DynamicsModel> constant = DynamicsModel::Create(oc);
+  ASSERT_TRUE(constant.ok());
+  Eigen::MatrixXd x = d.x, u = Eigen::MatrixXd::Zero(4, 1), next = d.next;
+  ASSERT_TRUE(constant->AddSamples(x, u, next).ok());
+  ASSERT_TRUE(constant->AddSamples(x, u, next).ok());
+  ASSERT_TRUE(constant->Refit().ok());
+  constant->Predict(z, &mean, &var, nullptr, nullptr);
+  EXPECT_TRUE(mean.allFinite());
+  EXPECT_TRUE(var.allFinite());
+}
+
+}  // namespace
+}  // namespace excite::gp

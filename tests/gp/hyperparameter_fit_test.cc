@@ -1,0 +1,166 @@
+#include "server/gp/hyperparameter_fit.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <optional>
+#include <random>
+
+#include "server/gp/gp_model.h"
+#include "server/gp/hyperparameters.h"
+#include "tests/gp/reference_gp.h"
+
+namespace excite::gp {
+namespace {
+
+// Draws y = f(x) + noise with f from a GP with hyperparameters `h` (sampled
+// through an LLT of the reference kernel matrix, independent of GpModel).
+void SampleFromGp(const Hyperparameters& h, int n, uint64_t seed, Eigen::MatrixXd* x,
+                  Eigen::VectorXd* y) {
+  const int d = static_cast<int>(h.lengthscales.size());
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::normal_distribution<double> g(0.0, 1.0);
+  x->resize(n, d);
+  for (int i = 0; i < n; ++i) {
+    for (int l = 0; l < d; ++l) (*x)(i, l) = u(rng);
+  }
+  Hyperparameters noiseless = h;
+  noiseless.noise_variance = 1e-8;
+  const testing::ReferenceGp ref(*x, Eigen::VectorXd::Zero(n), noiseless);
+  Eigen::MatrixXd k(n, n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) k(i, j) = ref.Kernel(x->row(i), x->row(j));
+    k(i, i) += 1e-8;
+  }
+  const Eigen::MatrixXd l = k.llt().matrixL();
+  Eigen::VectorXd w(n), e(n);
+  for (int i = 0; i < n; ++i) w(i) = g(rng);
+  for (int i = 0; i < n; ++i) e(i) = std::sqrt(h.noise_variance) * g(rng);
+  *y = l * w + e;
+}
+
+Hyperparameters Truth() {
+  Hyperparameters h;
+  h.signal_variance = 1.0;
+  h.lengthscales = Eigen::Vector2d(0.3, 1.5);
+  h.noise_variance = 0.01;
+  return h;
+}
+
+TEST(HyperparameterFitTest, RecoversKnownGp) {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+  const Hyperparameters truth = Truth();
+  SampleFromGp(truth, 250, 1, &x, &y);
+  Hyperparameters start;
+  start.lengthscales = Eigen::Vector2d(1.0, 1.0);
+  GpModel gp;
+  ASSERT_TRUE(gp.Reset(x, y, start).ok());
+  const absl::StatusOr<FitSummary> summary =
+      FitHyperparameters(FitOptions{}, 1e-4, /*fit_noise=*/true, std::nullopt, &gp);
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_TRUE(summary->fitted);
+  EXPECT_EQ(summary->starts, 1 + FitOptions{}.restarts);
+  const Hyperparameters& h = gp.hyperparameters();
+  EXPECT_NEAR(std::log(h.lengthscales(0)), std::log(truth.lengthscales(0)),
+              std::log(1.5));
+  EXPECT_NEAR(std::log(h.lengthscales(1)), std::log(truth.lengthscales(1)),
+              std::log(2.0));
+  EXPECT_NEAR(std::log(h.noise_variance), std::log(truth.noise_variance), std::log(2.0));
+  EXPECT_NEAR(std::log(h.signal_variance), std::log(truth.signal_variance),
+              std::log(4.0));
+  // The model is left factorised at the reported optimum.
+  const testing::ReferenceGp ref(x, y, h);
+  EXPECT_LT(testing::RelErr(gp.log_marginal_likelihood(), ref.LogMarginalLikelihood()),
+            1e-8);
+  // ... which is a stationary point: the projected gradient vanishes at interior
+  // parameters.
+  const Eigen::VectorXd g = gp.LogMarginalLikelihoodGradient();
+  EXPECT_LT(g.cwiseAbs().maxCoeff(), 1e-2 * 250);
+}
+
+TEST(HyperparameterFitTest, FittedLmlIsAtLeastThatOfEveryStart) {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+  SampleFromGp(Truth(), 80, 2, &x, &y);
+  Hyperparameters warm;
+  warm.signal_variance = 5.0;
+  warm.lengthscales = Eigen::Vector2d(3.0, 0.1);
+  warm.noise_variance = 0.3;
+  Hyperparameters def;
+  def.signal_variance = 1.0;
+  def.lengthscales = Eigen::Vector2d(1.0, 1.0);
+  def.noise_variance = 1e-2;
+  const double lml_warm = testing::ReferenceGp(x, y, warm).LogMarginalLikelihood();
+  const double lml_default = testing::ReferenceGp(x, y, def).LogMarginalLikelihood();
+  GpModel gp;
+  ASSERT_TRUE(gp.Reset(x, y, warm).ok());
+  FitOptions options;
+  options.max_iterations = 5;  // even a short fit must not end below its starts
+  const absl::StatusOr<FitSummary> summary =
+      FitHyperparameters(options, 1e-4, true, warm, &gp);
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->starts, 2 + options.warm_restarts);
+  EXPECT_GE(gp.log_marginal_likelihood(), lml_warm);
+  EXPECT_GE(gp.log_marginal_likelihood(), lml_default);
+}
+
+TEST(HyperparameterFitTest, FixedNoiseStaysFixedAndBoundsHold) {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+  SampleFromGp(Truth(), 60, 3, &x, &y);
+  GpModel gp;
+  ASSERT_TRUE(gp.Reset(x, y, Truth()).ok());
+  FitOptions options;
+  options.min_lengthscale = 0.5;  // truth 0.3 is below: must end on the bound
+  ASSERT_TRUE(
+      FitHyperparameters(options, 0.02, /*fit_noise=*/false, std::nullopt, &gp).ok());
+  EXPECT_EQ(gp.hyperparameters().noise_variance, 0.02);
+  EXPECT_GE(gp.hyperparameters().lengthscales.minCoeff(), 0.5 * (1 - 1e-12));
+  EXPECT_LE(gp.hyperparameters().lengthscales.maxCoeff(), options.max_lengthscale);
+  // Fitted noise respects its floor.
+  ASSERT_TRUE(
+      FitHyperparameters(options, 0.05, /*fit_noise=*/true, std::nullopt, &gp).ok());
+  EXPECT_GE(gp.hyperparameters().noise_variance, 0.05 * (1 - 1e-12));
+}
+
+TEST(HyperparameterFitTest, DeterministicForSeed) {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+  SampleFromGp(Truth(), 60, 4, &x, &y);
+  FitOptions options;
+  options.restarts = 3;
+  options.seed = 42;
+  GpModel a, b;
+  ASSERT_TRUE(a.Reset(x, y, Truth()).ok());
+  ASSERT_TRUE(b.Reset(x, y, Truth()).ok());
+  ASSERT_TRUE(FitHyperparameters(options, 1e-3, true, std::nullopt, &a).ok());
+  ASSERT_TRUE(FitHyperparameters(options, 1e-3, true, std::nullopt, &b).ok());
+  EXPECT_EQ(a.hyperparameters().lengthscales, b.hyperparameters().lengthscales);
+  EXPECT_EQ(a.hyperparameters().noise_variance, b.hyperparameters().noise_variance);
+}
+
+TEST(HyperparameterFitTest, RejectsBadOptions) {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+  SampleFromGp(Truth(), 10, 5, &x, &y);
+  GpModel gp;
+  ASSERT_TRUE(gp.Reset(x, y, Truth()).ok());
+  FitOptions options;
+  options.min_lengthscale = 10.0;
+  options.max_lengthscale = 1.0;
+  EXPECT_EQ(FitHyperparameters(options, 1e-3, true, std::nullopt, &gp).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(
+      FitHyperparameters(FitOptions{}, -1.0, true, std::nullopt, &gp).status().code(),
+      absl::StatusCode::kInvalidArgument);
+  GpModel empty;
+  EXPECT_EQ(
+      FitHyperparameters(FitOptions{}, 1e-3, true, std::nullopt, &empty).status().code(),
+      absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace excite::gp
