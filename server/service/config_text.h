@@ -1,0 +1,22 @@
+#ifndef EXCITE_SERVER_SERVICE_CONFIG_TEXT_H_
+#define EXCITE_SERVER_SERVICE_CONFIG_TEXT_H_
+
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "excite/v1/session_config.pb.h"
+
+namespace excite::service {
+
+// Parses a SessionConfig in protobuf text format. INVALID_ARGUMENT with
+// protobuf's "line:column: message" if it does not parse. Does not validate: call
+// ValidateSessionConfig (config_validation.h).
+absl::StatusOr<v1::SessionConfig> ParseSessionConfigText(absl::string_view text);
+
+// Reads and parses a SessionConfig textproto file. NOT_FOUND if it cannot be read.
+absl::StatusOr<v1::SessionConfig> LoadSessionConfigFile(const std::string& path);
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_CONFIG_TEXT_H_

@@ -1,0 +1,292 @@
+#include "server/service/config_validation.h"
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "server/gp/hyperparameter_fit.h"
+#include "server/plan/planner.h"
+
+namespace excite::service {
+namespace {
+
+std::string Field(absl::string_view path, absl::string_view name) {
+  return absl::StrCat(path, ".", name);
+}
+
+std::string Indexed(absl::string_view path, absl::string_view name, int index) {
+  return absl::StrCat(path, ".", name, "[", index, "]");
+}
+
+absl::Status Invalid(absl::string_view field, absl::string_view what) {
+  return absl::InvalidArgumentError(absl::StrCat(field, ": ", what));
+}
+
+// An int field with a default for 0 and an inclusive valid range.
+absl::Status IntWithDefault(absl::string_view field, int32_t* value, int32_t def,
+                            int32_t min, int32_t max) {
+  if (*value == 0) *value = def;
+  if (*value < min || *value > max) {
+    return Invalid(field, absl::StrCat("must be in [", min, ", ", max,
+                                       "] (0 for the default ", def, "), got ", *value));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckInterval(absl::string_view field, const v1::Interval& interval) {
+  if (!std::isfinite(interval.lower()) || !std::isfinite(interval.upper())) {
+    return Invalid(field, absl::StrCat("lower (", interval.lower(), ") and upper (",
+                                       interval.upper(), ") must be finite"));
+  }
+  if (!(interval.lower() < interval.upper())) {
+    return Invalid(field, absl::StrCat("lower (", interval.lower(), ") must be < upper (",
+                                       interval.upper(), ")"));
+  }
+  return absl::OkStatus();
+}
+
+// Positive bounds of a fit: lower > 0 too (they are bounds of log-parameters).
+absl::Status CheckPositiveBounds(absl::string_view field, v1::Interval* interval,
+                                 bool present, double def_lower, double def_upper) {
+  if (!present) {
+    interval->set_lower(def_lower);
+    interval->set_upper(def_upper);
+    return absl::OkStatus();
+  }
+  if (absl::Status s = CheckInterval(field, *interval); !s.ok()) return s;
+  if (!(interval->lower() > 0.0)) {
+    return Invalid(Field(field, "lower"),
+                   absl::StrCat("must be > 0, got ", interval->lower()));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckPositive(absl::string_view field, double value) {
+  if (!std::isfinite(value) || !(value > 0.0)) {
+    return Invalid(field, absl::StrCat("must be a finite number > 0, got ", value));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& config,
+                            v1::KernelConfig* kernel) {
+  const std::string kpath = Field(path, "kernel");
+  const int z_dim = config.state_dim() + config.input_dim();
+  if (!kernel->fit()) {
+    if (kernel->fixed_size() != config.state_dim()) {
+      return Invalid(
+          Field(kpath, "fixed"),
+          absl::StrCat("must have state_dim (", config.state_dim(),
+                       ") entries when kernel.fit is false, got ", kernel->fixed_size()));
+    }
+    for (int i = 0; i < kernel->fixed_size(); ++i) {
+      const v1::Hyperparameters& h = kernel->fixed(i);
+      const std::string hpath = Indexed(kpath, "fixed", i);
+      if (absl::Status s =
+              CheckPositive(Field(hpath, "signal_variance"), h.signal_variance());
+          !s.ok()) {
+        return s;
+      }
+      if (h.lengthscales_size() != z_dim) {
+        return Invalid(Field(hpath, "lengthscales"),
+                       absl::StrCat("must have state_dim + input_dim (", z_dim,
+                                    ") entries, got ", h.lengthscales_size()));
+      }
+      for (int l = 0; l < h.lengthscales_size(); ++l) {
+        if (absl::Status s =
+                CheckPositive(Indexed(hpath, "lengthscales", l), h.lengthscales(l));
+            !s.ok()) {
+          return s;
+        }
+      }
+      if (absl::Status s =
+              CheckPositive(Field(hpath, "noise_variance"), h.noise_variance());
+          !s.ok()) {
+        return s;
+      }
+    }
+  } else if (kernel->fixed_size() != 0) {
+    return Invalid(Field(kpath, "fixed"),
+                   absl::StrCat("must be empty when kernel.fit is true (fixed "
+                                "hyperparameters are used only without a fit), got ",
+                                kernel->fixed_size(), " entries"));
+  }
+  const gp::FitOptions fit_defaults;
+  if (absl::Status s = CheckPositiveBounds(
+          Field(kpath, "lengthscale_bounds"), kernel->mutable_lengthscale_bounds(),
+          kernel->has_lengthscale_bounds(), fit_defaults.min_lengthscale,
+          fit_defaults.max_lengthscale);
+      !s.ok()) {
+    return s;
+  }
+  if (absl::Status s = CheckPositiveBounds(
+          Field(kpath, "signal_variance_bounds"),
+          kernel->mutable_signal_variance_bounds(), kernel->has_signal_variance_bounds(),
+          fit_defaults.min_signal_variance, fit_defaults.max_signal_variance);
+      !s.ok()) {
+    return s;
+  }
+  int32_t restarts = kernel->restarts();
+  if (absl::Status s = IntWithDefault(Field(kpath, "restarts"), &restarts,
+                                      fit_defaults.restarts, 0, 100);
+      !s.ok()) {
+    return s;
+  }
+  kernel->set_restarts(restarts);
+  int32_t iterations = kernel->max_iterations();
+  if (absl::Status s = IntWithDefault(Field(kpath, "max_iterations"), &iterations,
+                                      fit_defaults.max_iterations, 1, 10000);
+      !s.ok()) {
+    return s;
+  }
+  kernel->set_max_iterations(iterations);
+  return absl::OkStatus();
+}
+
+absl::Status ValidatePlanner(absl::string_view path, v1::PlannerConfig* planner) {
+  const std::string ppath = Field(path, "planner");
+  const plan::PlanOptions defaults;
+  int32_t iterations = planner->max_iterations();
+  if (absl::Status s = IntWithDefault(Field(ppath, "max_iterations"), &iterations,
+                                      defaults.max_iterations, 1, 10000);
+      !s.ok()) {
+    return s;
+  }
+  planner->set_max_iterations(iterations);
+  int32_t restarts = planner->restarts();
+  if (absl::Status s =
+          IntWithDefault(Field(ppath, "restarts"), &restarts, defaults.restarts, 0, 100);
+      !s.ok()) {
+    return s;
+  }
+  planner->set_restarts(restarts);
+  if (planner->tolerance() == 0.0) planner->set_tolerance(defaults.tolerance);
+  if (!std::isfinite(planner->tolerance()) || !(planner->tolerance() > 0.0) ||
+      !(planner->tolerance() < 1.0)) {
+    return Invalid(Field(ppath, "tolerance"),
+                   absl::StrCat("must be in (0, 1) (0 for the default ",
+                                defaults.tolerance, "), got ", planner->tolerance()));
+  }
+  if (planner->time_budget_s() == 0.0) planner->set_time_budget_s(kDefaultTimeBudgetS);
+  if (!std::isfinite(planner->time_budget_s()) || !(planner->time_budget_s() > 0.0) ||
+      planner->time_budget_s() > 3600.0) {
+    return Invalid(
+        Field(ppath, "time_budget_s"),
+        absl::StrCat("must be in (0, 3600] seconds (0 for the default ",
+                     kDefaultTimeBudgetS, "), got ", planner->time_budget_s()));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view path) {
+  if (config->state_dim() < 1 || config->state_dim() > kMaxStateDim) {
+    return Invalid(
+        Field(path, "state_dim"),
+        absl::StrCat("must be in [1, ", kMaxStateDim, "], got ", config->state_dim()));
+  }
+  if (config->input_dim() < 1 || config->input_dim() > kMaxInputDim) {
+    return Invalid(
+        Field(path, "input_dim"),
+        absl::StrCat("must be in [1, ", kMaxInputDim, "], got ", config->input_dim()));
+  }
+  if (config->input_bounds_size() != config->input_dim()) {
+    return Invalid(Field(path, "input_bounds"),
+                   absl::StrCat("must have input_dim (", config->input_dim(),
+                                ") entries, got ", config->input_bounds_size()));
+  }
+  for (int i = 0; i < config->input_bounds_size(); ++i) {
+    if (absl::Status s =
+            CheckInterval(Indexed(path, "input_bounds", i), config->input_bounds(i));
+        !s.ok()) {
+      return s;
+    }
+  }
+  if (config->state_bounds_size() != 0 &&
+      config->state_bounds_size() != config->state_dim()) {
+    return Invalid(Field(path, "state_bounds"),
+                   absl::StrCat("must have 0 or state_dim (", config->state_dim(),
+                                ") entries, got ", config->state_bounds_size()));
+  }
+  for (int i = 0; i < config->state_bounds_size(); ++i) {
+    if (absl::Status s =
+            CheckInterval(Indexed(path, "state_bounds", i), config->state_bounds(i));
+        !s.ok()) {
+      return s;
+    }
+  }
+
+  const std::string npath = Field(path, "noise");
+  if (absl::Status s =
+          CheckPositive(Field(npath, "variance"), config->noise().variance());
+      !s.ok()) {
+    return s;
+  }
+  if (config->noise().fit() && !config->kernel().fit()) {
+    return Invalid(Field(npath, "fit"),
+                   "the noise variance can only be fitted when kernel.fit is true (with "
+                   "kernel.fit false, kernel.fixed[i].noise_variance is used)");
+  }
+  if (absl::Status s = ValidateKernel(path, *config, config->mutable_kernel()); !s.ok()) {
+    return s;
+  }
+
+  if (config->target() == v1::TARGET_UNSPECIFIED) config->set_target(v1::TARGET_DELTA);
+  if (config->target() != v1::TARGET_DELTA && config->target() != v1::TARGET_NEXT) {
+    return Invalid(Field(path, "target"),
+                   absl::StrCat("unknown value ", static_cast<int>(config->target())));
+  }
+  if (config->strategy() == v1::STRATEGY_UNSPECIFIED) {
+    config->set_strategy(v1::STRATEGY_REC);
+  }
+  if (config->strategy() != v1::STRATEGY_REC && config->strategy() != v1::STRATEGY_PA &&
+      config->strategy() != v1::STRATEGY_GREEDY) {
+    return Invalid(Field(path, "strategy"),
+                   absl::StrCat("unknown value ", static_cast<int>(config->strategy())));
+  }
+  if (config->strategy() == v1::STRATEGY_GREEDY) {
+    if (config->horizon() < 0 || config->horizon() > kMaxHorizon) {
+      return Invalid(Field(path, "horizon"), absl::StrCat("must be in [1, ", kMaxHorizon,
+                                                          "], got ", config->horizon()));
+    }
+    config->set_horizon(1);  // greedy is rec with M = 1
+  } else {
+    int32_t horizon = config->horizon();
+    if (absl::Status s = IntWithDefault(Field(path, "horizon"), &horizon,
+                                        plan::PlanOptions().horizon, 1, kMaxHorizon);
+        !s.ok()) {
+      return s;
+    }
+    config->set_horizon(horizon);
+  }
+
+  const std::string rpath = Field(path, "refit");
+  v1::RefitPolicy* refit = config->mutable_refit();
+  int32_t every = refit->every_samples();
+  if (absl::Status s = IntWithDefault(Field(rpath, "every_samples"), &every,
+                                      kDefaultRefitEverySamples, 1, 1000000);
+      !s.ok()) {
+    return s;
+  }
+  refit->set_every_samples(every);
+  int32_t min_samples = refit->min_samples();
+  if (absl::Status s = IntWithDefault(Field(rpath, "min_samples"), &min_samples,
+                                      kDefaultMinSamples, 2, 1000000);
+      !s.ok()) {
+    return s;
+  }
+  refit->set_min_samples(min_samples);
+
+  return ValidatePlanner(path, config->mutable_planner());
+}
+
+absl::StatusOr<v1::SessionConfig> ValidatedSessionConfig(const v1::SessionConfig& config,
+                                                         absl::string_view path) {
+  v1::SessionConfig copy = config;
+  if (absl::Status s = ValidateSessionConfig(&copy, path); !s.ok()) return s;
+  return copy;
+}
+
+}  // namespace excite::service

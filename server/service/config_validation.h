@@ -1,0 +1,58 @@
+#ifndef EXCITE_SERVER_SERVICE_CONFIG_VALIDATION_H_
+#define EXCITE_SERVER_SERVICE_CONFIG_VALIDATION_H_
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "excite/v1/session_config.pb.h"
+
+namespace excite::service {
+
+// Caps of a session's size (beyond them a GP session is not useful on one node).
+inline constexpr int kMaxStateDim = 64;
+inline constexpr int kMaxInputDim = 32;
+inline constexpr int kMaxHorizon = 200;
+
+// Defaults the proto documents that have no home in the engine's option structs.
+inline constexpr double kDefaultTimeBudgetS = 10.0;  // planner.time_budget_s
+inline constexpr int kDefaultRefitEverySamples = 1;  // refit.every_samples
+inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
+
+// Validates a SessionConfig, wherever it comes from (CreateSession on the wire or a
+// textproto file), and fills the defaults in place so that the stored config says
+// what the server does. Returns INVALID_ARGUMENT naming the exact field path under
+// `path`, e.g. "config.input_bounds[0]: lower (2) must be < upper (1)". On error
+// `config` may be partly filled.
+//
+// Rules (a zero/unset number means "default" where a default is listed; the
+// defaults are those of gp::FitOptions and plan::PlanOptions, as the proto says):
+//   state_dim in [1, 64]; input_dim in [1, 32];
+//   input_bounds: exactly input_dim intervals, finite, lower < upper;
+//   state_bounds: 0 or state_dim intervals, finite, lower < upper;
+//   noise.variance finite > 0; noise.fit only with kernel.fit;
+//   kernel.fit = false: kernel.fixed has state_dim entries, each with
+//     signal_variance > 0, state_dim + input_dim lengthscales > 0 and
+//     noise_variance > 0 (all finite); kernel.fit = true: kernel.fixed empty;
+//   kernel.lengthscale_bounds default [0.05, 50], signal_variance_bounds default
+//     [0.01, 100]: finite, 0 < lower < upper;
+//   kernel.restarts in [0, 100] (0: default 2); kernel.max_iterations in
+//     [0, 10000] (0: default 60);
+//   target: UNSPECIFIED -> DELTA; strategy: UNSPECIFIED -> REC; unknown values are
+//     rejected;
+//   horizon in [0, 200] (0: default 15); GREEDY forces 1;
+//   refit.every_samples in [0, 1000000] (0: default 1); refit.min_samples in
+//     {0} or [2, 1000000] (0: default 2; a fit needs 2 samples);
+//   planner.max_iterations in [0, 10000] (0: default 100); planner.restarts in
+//     [0, 100] (0: default 1); planner.tolerance 0 (default 1e-4) or finite in
+//     (0, 1); planner.time_budget_s 0 (default 10) or finite in (0, 3600].
+// Note that proto3 cannot tell 0 from unset: 0 restarts cannot be requested.
+absl::Status ValidateSessionConfig(v1::SessionConfig* config,
+                                   absl::string_view path = "config");
+
+// Convenience: a validated copy with defaults filled.
+absl::StatusOr<v1::SessionConfig> ValidatedSessionConfig(
+    const v1::SessionConfig& config, absl::string_view path = "config");
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_CONFIG_VALIDATION_H_

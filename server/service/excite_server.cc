@@ -1,0 +1,106 @@
+#include "server/service/excite_server.h"
+
+#include <utility>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "grpcpp/ext/proto_server_reflection_plugin.h"
+#include "grpcpp/health_check_service_interface.h"
+#include "grpcpp/security/server_credentials.h"
+#include "grpcpp/server_builder.h"
+#include "server/service/logging.h"
+
+namespace excite::service {
+
+absl::Status SplitHostPort(const std::string& address, std::string* host, int* port) {
+  const size_t colon = address.rfind(':');
+  if (colon == std::string::npos || colon == 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("listen address \"", address, "\" is not HOST:PORT"));
+  }
+  std::string h = address.substr(0, colon);
+  if (h.size() >= 2 && h.front() == '[' && h.back() == ']') h = h.substr(1, h.size() - 2);
+  int p = 0;
+  if (!absl::SimpleAtoi(address.substr(colon + 1), &p) || p < 0 || p > 65535) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("listen address \"", address, "\": bad port"));
+  }
+  *host = std::move(h);
+  *port = p;
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
+    const ServerOptions& options) {
+  std::unique_ptr<ExciteServer> server(new ExciteServer());
+  int requested_port = 0;
+  if (absl::Status s = SplitHostPort(options.listen, &server->host_, &requested_port);
+      !s.ok()) {
+    return s;
+  }
+  if (options.max_message_mb < 1 || options.max_message_mb > 2047) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "max_message_mb must be in [1, 2047], got ", options.max_message_mb));
+  }
+  absl::StatusOr<std::unique_ptr<store::SqliteStore>> store =
+      store::SqliteStore::Open(options.data_dir);
+  if (!store.ok()) return store.status();
+  server->store_ = *std::move(store);
+  absl::StatusOr<std::unique_ptr<SessionRegistry>> registry =
+      SessionRegistry::Load(server->store_.get(), options.limits.max_sessions);
+  if (!registry.ok()) return registry.status();
+  server->registry_ = *std::move(registry);
+  server->service_ =
+      std::make_unique<ExplorationService>(server->registry_.get(), options.limits);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int bound_port = 0;
+  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(),
+                           &bound_port);
+  const int max_bytes = options.max_message_mb * 1024 * 1024;
+  builder.SetMaxReceiveMessageSize(max_bytes);
+  builder.SetMaxSendMessageSize(max_bytes);
+  // Never share a port with another process (gRPC enables SO_REUSEPORT otherwise).
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  builder.RegisterService(server->service_.get());
+  server->server_ = builder.BuildAndStart();
+  if (server->server_ == nullptr || bound_port == 0) {
+    return absl::UnavailableError(absl::StrCat("cannot listen on ", options.listen));
+  }
+  server->port_ = bound_port;
+  if (grpc::HealthCheckServiceInterface* health =
+          server->server_->GetHealthCheckService()) {
+    health->SetServingStatus(true);
+  }
+  Log(LogLevel::kInfo, absl::StrCat("serving ", server->registry_->size(),
+                                    " sessions from ", server->store_->path()));
+  return server;
+}
+
+ExciteServer::~ExciteServer() {
+  Shutdown(std::chrono::seconds(1));
+  if (server_ != nullptr) server_->Wait();
+}
+
+std::string ExciteServer::address() const {
+  const bool v6 = host_.find(':') != std::string::npos;
+  return v6 ? absl::StrCat("[", host_, "]:", port_) : absl::StrCat(host_, ":", port_);
+}
+
+void ExciteServer::Shutdown(std::chrono::milliseconds grace) {
+  absl::MutexLock lock(&shutdown_mu_);
+  if (shut_down_ || server_ == nullptr) return;
+  shut_down_ = true;
+  if (grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService()) {
+    health->SetServingStatus(false);
+  }
+  server_->Shutdown(std::chrono::system_clock::now() + grace);
+}
+
+void ExciteServer::Wait() {
+  if (server_ != nullptr) server_->Wait();
+}
+
+}  // namespace excite::service

@@ -1,0 +1,71 @@
+#ifndef EXCITE_SERVER_SERVICE_EXCITE_SERVER_H_
+#define EXCITE_SERVER_SERVICE_EXCITE_SERVER_H_
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "grpcpp/server.h"
+#include "server/service/exploration_service.h"
+#include "server/service/session_registry.h"
+#include "server/store/sqlite_store.h"
+
+namespace excite::service {
+
+struct ServerOptions {
+  // "host:port"; port 0 picks a free one (see ExciteServer::address()).
+  std::string listen = "127.0.0.1:50051";
+  // Where the store lives (created if missing).
+  std::string data_dir = "./.excite-data";
+  // Largest message received or sent.
+  int max_message_mb = 64;
+  ServiceLimits limits;
+};
+
+// The whole server: store, session registry, ExplorationService, grpc.health.v1
+// (SERVING once started) and server reflection, on one listening port. Used by
+// excite-server's main and by in-process tests.
+class ExciteServer {
+ public:
+  // Opens the store, loads the sessions, starts listening. UNAVAILABLE if the
+  // address cannot be bound; the store's errors as they are.
+  static absl::StatusOr<std::unique_ptr<ExciteServer>> Start(
+      const ServerOptions& options);
+
+  // Shuts down (grace 1 s) if Shutdown() was not called.
+  ~ExciteServer();
+  ExciteServer(const ExciteServer&) = delete;
+  ExciteServer& operator=(const ExciteServer&) = delete;
+
+  // The host of the listen address and the port actually bound.
+  const std::string& host() const { return host_; }
+  int port() const { return port_; }
+  // "host:port" (IPv6 hosts in brackets), ready to dial.
+  std::string address() const;
+
+  // Health NOT_SERVING, then stops accepting RPCs; in-flight RPCs get `grace` to
+  // finish, then are cancelled. Idempotent; thread-safe.
+  void Shutdown(std::chrono::milliseconds grace);
+  // Blocks until the server has shut down.
+  void Wait();
+
+ private:
+  ExciteServer() = default;
+
+  std::string host_;
+  int port_ = 0;
+  std::unique_ptr<store::SqliteStore> store_;
+  std::unique_ptr<SessionRegistry> registry_;
+  std::unique_ptr<ExplorationService> service_;
+  std::unique_ptr<grpc::Server> server_;
+  absl::Mutex shutdown_mu_;
+  bool shut_down_ ABSL_GUARDED_BY(shutdown_mu_) = false;
+};
+
+// Splits "host:port" / "[v6]:port". INVALID_ARGUMENT if malformed.
+absl::Status SplitHostPort(const std::string& address, std::string* host, int* port);
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_EXCITE_SERVER_H_

@@ -1,0 +1,224 @@
+#include "server/service/exploration_service.h"
+
+#include <algorithm>
+#include <chrono>
+#include <exception>
+#include <string>
+#include <utility>
+
+#include "absl/strings/escaping.h"
+#include "absl/strings/str_cat.h"
+#include "server/service/grpc_status.h"
+#include "server/service/logging.h"
+#include "server/service/request_validation.h"
+#include "server/service/resource_name.h"
+
+namespace excite::service {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Runs one RPC body: catches anything thrown, logs one debug line, converts the
+// status.
+template <typename Body>
+grpc::Status RunRpc(absl::string_view method, const std::string& session, Body&& body) {
+  const Clock::time_point start = Clock::now();
+  absl::Status status;
+  try {
+    status = body();
+  } catch (const std::exception& e) {
+    status =
+        absl::InternalError(absl::StrCat(method, ": unexpected exception: ", e.what()));
+  } catch (...) {
+    status = absl::InternalError(absl::StrCat(method, ": unexpected exception"));
+  }
+  if (LogEnabled(LogLevel::kDebug) ||
+      (!status.ok() && status.code() == absl::StatusCode::kInternal)) {
+    const double ms =
+        std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    Log(status.code() == absl::StatusCode::kInternal ? LogLevel::kError
+                                                     : LogLevel::kDebug,
+        absl::StrCat("rpc ", method, " session=", session.empty() ? "-" : session,
+                     " status=", absl::StatusCodeToString(status.code()),
+                     status.ok() ? "" : absl::StrCat(" (", status.message(), ")"),
+                     " ms=", absl::SixDigits(ms)));
+  }
+  return ToGrpcStatus(status);
+}
+
+// min(client deadline - a margin for the reply, budget) as a steady-clock time.
+Clock::time_point PlanDeadline(const grpc::ServerContext& context, double budget_s) {
+  const Clock::time_point now = Clock::now();
+  Clock::duration allowed = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(budget_s));
+  const auto client_left = context.deadline() - std::chrono::system_clock::now();
+  // gRPC reports "no deadline" as a time point far in the future.
+  if (client_left < std::chrono::hours(24 * 365)) {
+    auto left = std::chrono::duration_cast<Clock::duration>(client_left);
+    // Leave time to send the reply: 10% of what is left, at most 50 ms.
+    left -= std::min<Clock::duration>(left / 10, std::chrono::milliseconds(50));
+    allowed = std::min(allowed, left);
+  }
+  return now + allowed;
+}
+
+}  // namespace
+
+ExplorationService::ExplorationService(SessionRegistry* registry, ServiceLimits limits)
+    : registry_(registry), limits_(limits) {}
+
+grpc::Status ExplorationService::CreateSession(grpc::ServerContext* /*context*/,
+                                               const v1::CreateSessionRequest* request,
+                                               v1::Session* response) {
+  return RunRpc("CreateSession", request->session_id(), [&]() -> absl::Status {
+    absl::StatusOr<std::shared_ptr<Session>> session =
+        registry_->Create(request->session_id(), request->config());
+    if (!session.ok()) return session.status();
+    *response = (*session)->Describe();
+    Log(LogLevel::kInfo, absl::StrCat("created ", (*session)->name()));
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::GetSession(grpc::ServerContext* /*context*/,
+                                            const v1::GetSessionRequest* request,
+                                            v1::Session* response) {
+  return RunRpc("GetSession", request->name(), [&]() -> absl::Status {
+    absl::StatusOr<std::string> id = ParseSessionName(request->name(), "name");
+    if (!id.ok()) return id.status();
+    absl::StatusOr<std::shared_ptr<Session>> session = registry_->Get(*id);
+    if (!session.ok()) return session.status();
+    *response = (*session)->Describe();
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::ListSessions(grpc::ServerContext* /*context*/,
+                                              const v1::ListSessionsRequest* request,
+                                              v1::ListSessionsResponse* response) {
+  return RunRpc("ListSessions", "", [&]() -> absl::Status {
+    absl::StatusOr<SessionRegistry::Page> page =
+        registry_->List(request->page_size(), request->page_token());
+    if (!page.ok()) return page.status();
+    for (const std::shared_ptr<Session>& session : page->sessions) {
+      *response->add_sessions() = session->Describe();
+    }
+    response->set_next_page_token(page->next_page_token);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::DeleteSession(grpc::ServerContext* /*context*/,
+                                               const v1::DeleteSessionRequest* request,
+                                               v1::DeleteSessionResponse* /*response*/) {
+  return RunRpc("DeleteSession", request->name(), [&]() -> absl::Status {
+    absl::StatusOr<std::string> id = ParseSessionName(request->name(), "name");
+    if (!id.ok()) return id.status();
+    if (absl::Status s = registry_->Delete(*id); !s.ok()) return s;
+    Log(LogLevel::kInfo, absl::StrCat("deleted ", request->name()));
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::AddData(grpc::ServerContext* context,
+                                         grpc::ServerReader<v1::AddDataRequest>* reader,
+                                         v1::AddDataResponse* response) {
+  std::string name;  // the stream's session, for the log line
+  return RunRpc("AddData", name, [&]() -> absl::Status {
+    std::shared_ptr<Session> session;
+    v1::AddDataRequest request;
+    int64_t stored = 0;
+    int64_t duplicates = 0;
+    int message_index = 0;
+    for (; reader->Read(&request); ++message_index) {
+      if (session == nullptr) {
+        if (request.session().empty()) {
+          return absl::InvalidArgumentError(
+              "session: required in the first AddData message (\"sessions/{id}\")");
+        }
+        absl::StatusOr<std::string> id = ParseSessionName(request.session(), "session");
+        if (!id.ok()) return id.status();
+        absl::StatusOr<std::shared_ptr<Session>> found = registry_->Get(*id);
+        if (!found.ok()) return found.status();
+        session = *std::move(found);
+        name = session->name();
+      } else if (!request.session().empty() && request.session() != name) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("session: message ", message_index, " names ",
+                         absl::CHexEscape(request.session().substr(0, 100)),
+                         " but the stream started with ", name));
+      }
+      if (absl::Status s = ValidateTransitions(session->config(), request.transitions());
+          !s.ok()) {
+        return absl::Status(
+            s.code(), absl::StrCat("AddData message ", message_index, ": ", s.message(),
+                                   " (earlier messages of the stream are stored)"));
+      }
+      absl::StatusOr<v1::AddDataResponse> added =
+          session->AddTransitions(request.transitions(), limits_.max_samples_per_session);
+      if (!added.ok()) return added.status();
+      stored += added->stored();
+      duplicates += added->duplicates();
+    }
+    if (session == nullptr) {
+      return absl::InvalidArgumentError(
+          "session: the AddData stream carried no message naming a session");
+    }
+    if (context->IsCancelled()) {
+      return absl::CancelledError("AddData was cancelled by the client");
+    }
+    response->set_stored(stored);
+    response->set_duplicates(duplicates);
+    const v1::Session described = session->Describe();
+    response->set_sample_count(described.sample_count());
+    response->set_model_version(described.model_version());
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::Predict(grpc::ServerContext* /*context*/,
+                                         const v1::PredictRequest* request,
+                                         v1::PredictResponse* response) {
+  return RunRpc("Predict", request->session(), [&]() -> absl::Status {
+    absl::StatusOr<std::string> id = ParseSessionName(request->session(), "session");
+    if (!id.ok()) return id.status();
+    absl::StatusOr<std::shared_ptr<Session>> session = registry_->Get(*id);
+    if (!session.ok()) return session.status();
+    if (absl::Status s = ValidatePredictInputs((*session)->config(), request->inputs(),
+                                               limits_.max_predict_points);
+        !s.ok()) {
+      return s;
+    }
+    absl::StatusOr<v1::PredictResponse> predicted = (*session)->Predict(*request);
+    if (!predicted.ok()) return predicted.status();
+    *response = *std::move(predicted);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
+                                            const v1::PlanInputsRequest* request,
+                                            v1::PlanInputsResponse* response) {
+  return RunRpc("PlanInputs", request->session(), [&]() -> absl::Status {
+    absl::StatusOr<std::string> id = ParseSessionName(request->session(), "session");
+    if (!id.ok()) return id.status();
+    absl::StatusOr<std::shared_ptr<Session>> session = registry_->Get(*id);
+    if (!session.ok()) return session.status();
+    if (absl::Status s = ValidatePlanState((*session)->config(), request->state());
+        !s.ok()) {
+      return s;
+    }
+    const Clock::time_point deadline =
+        PlanDeadline(*context, (*session)->config().planner().time_budget_s());
+    absl::StatusOr<v1::PlanInputsResponse> plan = (*session)->PlanInputs(
+        *request, deadline, [context]() { return context->IsCancelled(); });
+    if (!plan.ok()) return plan.status();
+    if (context->IsCancelled()) {
+      return absl::CancelledError("PlanInputs was cancelled by the client");
+    }
+    *response = *std::move(plan);
+    return absl::OkStatus();
+  });
+}
+
+}  // namespace excite::service

@@ -1,0 +1,55 @@
+#ifndef EXCITE_SERVER_SERVICE_EXPLORATION_SERVICE_H_
+#define EXCITE_SERVER_SERVICE_EXPLORATION_SERVICE_H_
+
+#include <cstdint>
+
+#include "excite/v1/exploration_service.grpc.pb.h"
+#include "server/service/session_registry.h"
+
+namespace excite::service {
+
+// Caps of what one request or session may ask (RESOURCE_EXHAUSTED beyond).
+struct ServiceLimits {
+  int64_t max_sessions = 10000;
+  // Exact GPs cost O(n^2) memory and O(n^3) per refit: beyond this, use fewer.
+  int64_t max_samples_per_session = 20000;
+  int64_t max_predict_points = 100000;
+};
+
+// The synchronous gRPC service: translates requests into session calls and
+// absl::Status into grpc::Status. Every RPC is logged at debug level (method,
+// session, status, ms). No exception escapes an RPC. Thread-safe.
+class ExplorationService final : public v1::ExplorationService::Service {
+ public:
+  // `registry` must outlive the service.
+  ExplorationService(SessionRegistry* registry, ServiceLimits limits);
+
+  grpc::Status CreateSession(grpc::ServerContext* context,
+                             const v1::CreateSessionRequest* request,
+                             v1::Session* response) override;
+  grpc::Status GetSession(grpc::ServerContext* context,
+                          const v1::GetSessionRequest* request,
+                          v1::Session* response) override;
+  grpc::Status ListSessions(grpc::ServerContext* context,
+                            const v1::ListSessionsRequest* request,
+                            v1::ListSessionsResponse* response) override;
+  grpc::Status DeleteSession(grpc::ServerContext* context,
+                             const v1::DeleteSessionRequest* request,
+                             v1::DeleteSessionResponse* response) override;
+  grpc::Status AddData(grpc::ServerContext* context,
+                       grpc::ServerReader<v1::AddDataRequest>* reader,
+                       v1::AddDataResponse* response) override;
+  grpc::Status Predict(grpc::ServerContext* context, const v1::PredictRequest* request,
+                       v1::PredictResponse* response) override;
+  grpc::Status PlanInputs(grpc::ServerContext* context,
+                          const v1::PlanInputsRequest* request,
+                          v1::PlanInputsResponse* response) override;
+
+ private:
+  SessionRegistry* const registry_;
+  const ServiceLimits limits_;
+};
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_EXPLORATION_SERVICE_H_

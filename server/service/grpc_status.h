@@ -1,0 +1,15 @@
+#ifndef EXCITE_SERVER_SERVICE_GRPC_STATUS_H_
+#define EXCITE_SERVER_SERVICE_GRPC_STATUS_H_
+
+#include "absl/status/status.h"
+#include "grpcpp/support/status.h"
+
+namespace excite::service {
+
+// Same code (the numeric values of absl::StatusCode and grpc::StatusCode agree),
+// same message.
+grpc::Status ToGrpcStatus(const absl::Status& status);
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_GRPC_STATUS_H_

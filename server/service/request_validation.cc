@@ -1,0 +1,106 @@
+#include "server/service/request_validation.h"
+
+#include <cmath>
+#include <string>
+
+#include "absl/container/flat_hash_map.h"
+#include "absl/strings/str_cat.h"
+
+namespace excite::service {
+namespace {
+
+absl::Status CheckVector(absl::string_view field,
+                         const google::protobuf::RepeatedField<double>& values,
+                         int expected_size, absl::string_view size_name) {
+  if (values.size() != expected_size) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": must have ", size_name, " (",
+                                                   expected_size, ") numbers, got ",
+                                                   values.size()));
+  }
+  for (int i = 0; i < values.size(); ++i) {
+    if (!std::isfinite(values[i])) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, "[", i, "]: must be finite, got ", values[i]));
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status ValidateTransitions(
+    const v1::SessionConfig& config,
+    const google::protobuf::RepeatedPtrField<v1::Transition>& transitions) {
+  absl::flat_hash_map<int64_t, int> first_index;
+  first_index.reserve(transitions.size());
+  for (int i = 0; i < transitions.size(); ++i) {
+    const v1::Transition& t = transitions[i];
+    const std::string path = absl::StrCat("transitions[", i, "]");
+    if (absl::Status s = CheckVector(absl::StrCat(path, ".state"), t.state(),
+                                     config.state_dim(), "state_dim");
+        !s.ok()) {
+      return s;
+    }
+    if (absl::Status s = CheckVector(absl::StrCat(path, ".input"), t.input(),
+                                     config.input_dim(), "input_dim");
+        !s.ok()) {
+      return s;
+    }
+    if (absl::Status s = CheckVector(absl::StrCat(path, ".next_state"), t.next_state(),
+                                     config.state_dim(), "state_dim");
+        !s.ok()) {
+      return s;
+    }
+    if (t.sequence() < 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(path, ".sequence: must be >= 0, got ", t.sequence()));
+    }
+    if (!std::isfinite(t.timestamp_s())) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(path, ".timestamp_s: must be finite, got ", t.timestamp_s()));
+    }
+    auto [it, inserted] = first_index.emplace(t.sequence(), i);
+    if (!inserted) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          path, ".sequence: ", t.sequence(), " appears twice in one message (also in ",
+          "transitions[", it->second, "])"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidatePredictInputs(const v1::SessionConfig& config,
+                                   const google::protobuf::RepeatedField<double>& inputs,
+                                   int64_t max_points) {
+  const int z_dim = config.state_dim() + config.input_dim();
+  if (inputs.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "inputs: must hold at least one point z = (x, u) of state_dim + input_dim (",
+        z_dim, ") numbers"));
+  }
+  if (inputs.size() % z_dim != 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "inputs: ", inputs.size(),
+        " numbers is not a multiple of state_dim + input_dim (", z_dim, ")"));
+  }
+  const int64_t points = inputs.size() / z_dim;
+  if (points > max_points) {
+    return absl::ResourceExhaustedError(absl::StrCat("inputs: ", points,
+                                                     " points exceed the cap of ",
+                                                     max_points, " per Predict call"));
+  }
+  for (int i = 0; i < inputs.size(); ++i) {
+    if (!std::isfinite(inputs[i])) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "inputs[", i, "] (point ", i / z_dim, "): must be finite, got ", inputs[i]));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidatePlanState(const v1::SessionConfig& config,
+                               const google::protobuf::RepeatedField<double>& state) {
+  return CheckVector("state", state, config.state_dim(), "state_dim");
+}
+
+}  // namespace excite::service

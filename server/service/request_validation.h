@@ -1,0 +1,34 @@
+#ifndef EXCITE_SERVER_SERVICE_REQUEST_VALIDATION_H_
+#define EXCITE_SERVER_SERVICE_REQUEST_VALIDATION_H_
+
+#include <cstdint>
+
+#include "absl/status/status.h"
+#include "excite/v1/exploration_service.pb.h"
+#include "excite/v1/session_config.pb.h"
+#include "google/protobuf/repeated_field.h"
+
+namespace excite::service {
+
+// Checks one AddData message's transitions against a (validated) session config:
+// state/next_state of state_dim and input of input_dim numbers, all finite;
+// sequence >= 0; finite timestamp_s; no sequence number twice in the message.
+// INVALID_ARGUMENT naming the field, e.g. "transitions[3].state[1]: ...".
+absl::Status ValidateTransitions(
+    const v1::SessionConfig& config,
+    const google::protobuf::RepeatedPtrField<v1::Transition>& transitions);
+
+// Checks a Predict batch: non-empty, a multiple of state_dim + input_dim numbers,
+// all finite (INVALID_ARGUMENT naming "inputs"); at most `max_points` points
+// (RESOURCE_EXHAUSTED).
+absl::Status ValidatePredictInputs(const v1::SessionConfig& config,
+                                   const google::protobuf::RepeatedField<double>& inputs,
+                                   int64_t max_points);
+
+// Checks a PlanInputs state: state_dim finite numbers (INVALID_ARGUMENT "state").
+absl::Status ValidatePlanState(const v1::SessionConfig& config,
+                               const google::protobuf::RepeatedField<double>& state);
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_REQUEST_VALIDATION_H_

@@ -1,0 +1,40 @@
+#include "server/service/resource_name.h"
+
+#include "absl/status/status.h"
+#include "absl/strings/match.h"
+#include "absl/strings/escaping.h"
+#include "absl/strings/str_cat.h"
+
+namespace excite::service {
+namespace {
+constexpr absl::string_view kPrefix = "sessions/";
+}  // namespace
+
+bool IsValidSessionId(absl::string_view id) {
+  if (id.empty() || id.size() > 63) return false;
+  for (char c : id) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-';
+    if (!ok) return false;
+  }
+  return true;
+}
+
+std::string SessionName(absl::string_view id) { return absl::StrCat(kPrefix, id); }
+
+absl::StatusOr<std::string> ParseSessionName(absl::string_view name,
+                                             absl::string_view field) {
+  if (name.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": required (a session name \"sessions/{id}\")"));
+  }
+  if (!absl::StartsWith(name, kPrefix) ||
+      !IsValidSessionId(name.substr(kPrefix.size()))) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": \"", absl::CHexEscape(name.substr(0, 200)),
+                     "\" is not a session name \"sessions/{id}\" with id of 1 to 63 "
+                     "characters [a-z0-9-]"));
+  }
+  return std::string(name.substr(kPrefix.size()));
+}
+
+}  // namespace excite::service

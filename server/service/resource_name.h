@@ -1,0 +1,24 @@
+#ifndef EXCITE_SERVER_SERVICE_RESOURCE_NAME_H_
+#define EXCITE_SERVER_SERVICE_RESOURCE_NAME_H_
+
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+
+namespace excite::service {
+
+// True for a valid session id: 1 to 63 characters of [a-z0-9-].
+bool IsValidSessionId(absl::string_view id);
+
+// "sessions/{id}".
+std::string SessionName(absl::string_view id);
+
+// The id of a resource name "sessions/{id}". INVALID_ARGUMENT naming `field` if
+// `name` is not of that form.
+absl::StatusOr<std::string> ParseSessionName(absl::string_view name,
+                                             absl::string_view field);
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_RESOURCE_NAME_H_

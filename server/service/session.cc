@@ -1,0 +1,417 @@
+#include "server/service/session.h"
+
+#include <algorithm>
+#include <exception>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "server/service/logging.h"
+#include "server/service/resource_name.h"
+#include "server/service/session_options.h"
+
+namespace excite::service {
+namespace {
+
+using RowMajorMatrix =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+v1::SolverStatus ToProto(plan::PlanStatus status) {
+  switch (status) {
+    case plan::PlanStatus::kConverged:
+      return v1::SOLVER_STATUS_CONVERGED;
+    case plan::PlanStatus::kTimeLimit:
+      return v1::SOLVER_STATUS_TIME_LIMIT;
+    case plan::PlanStatus::kIterationLimit:
+      return v1::SOLVER_STATUS_ITERATION_LIMIT;
+    case plan::PlanStatus::kNotConverged:
+      return v1::SOLVER_STATUS_NOT_CONVERGED;
+  }
+  return v1::SOLVER_STATUS_UNSPECIFIED;
+}
+
+void AppendRowMajor(const Eigen::MatrixXd& matrix,
+                    google::protobuf::RepeatedField<double>* out) {
+  out->Reserve(out->size() + static_cast<int>(matrix.size()));
+  for (Eigen::Index i = 0; i < matrix.rows(); ++i) {
+    for (Eigen::Index j = 0; j < matrix.cols(); ++j) out->Add(matrix(i, j));
+  }
+}
+
+absl::Status NotDeleted(const std::string& name) {
+  return absl::NotFoundError(absl::StrCat("session ", name, " not found"));
+}
+
+// Engine calls must not let an exception escape the service.
+absl::Status InternalFromException(absl::string_view what, const std::exception& e) {
+  return absl::InternalError(absl::StrCat(what, ": unexpected exception: ", e.what()));
+}
+
+// The saved hyperparameters (a Session message holding only `outputs`), or
+// nothing if they are absent or unusable for `config`.
+std::optional<std::vector<gp::Hyperparameters>> ParseSavedHyperparameters(
+    const std::string& bytes, const v1::SessionConfig& config) {
+  if (bytes.empty()) return std::nullopt;
+  v1::Session saved;
+  if (!saved.ParseFromString(bytes) || saved.outputs_size() != config.state_dim()) {
+    return std::nullopt;
+  }
+  std::vector<gp::Hyperparameters> result;
+  for (const v1::OutputModel& output : saved.outputs()) {
+    const v1::Hyperparameters& h = output.hyperparameters();
+    if (h.lengthscales_size() != config.state_dim() + config.input_dim()) {
+      return std::nullopt;
+    }
+    result.push_back(FromProto(h));
+  }
+  return result;
+}
+
+}  // namespace
+
+Session::Session(std::string id, v1::SessionConfig config, gp::DynamicsModel model,
+                 store::SqliteStore* store)
+    : id_(std::move(id)),
+      name_(SessionName(id_)),
+      config_(std::move(config)),
+      store_(store),
+      model_(std::move(model)),
+      planner_(PlanOptionsFromConfig(config_)) {}
+
+absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
+                                                         v1::SessionConfig config,
+                                                         store::SqliteStore* store) {
+  try {
+    absl::StatusOr<gp::DynamicsModel> model =
+        gp::DynamicsModel::Create(ModelOptionsFromConfig(config));
+    if (!model.ok()) {
+      return absl::Status(model.status().code(),
+                          absl::StrCat("config: ", model.status().message()));
+    }
+    std::shared_ptr<Session> session(
+        new Session(std::move(id), std::move(config), *std::move(model), store));
+    absl::MutexLock lock(&session->mu_);
+    session->PublishInfo();
+    return session;
+  } catch (const std::exception& e) {
+    return InternalFromException("creating the session's model", e);
+  }
+}
+
+absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
+    const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
+    store::SqliteStore* store) {
+  v1::SessionConfig config;
+  if (!config.ParseFromString(record.config)) {
+    return absl::DataLossError(
+        absl::StrCat("session ", record.id, ": the stored config does not parse"));
+  }
+  try {
+    gp::DynamicsModelOptions options = ModelOptionsFromConfig(config);
+    if (config.refit().never() && config.kernel().fit()) {
+      if (std::optional<std::vector<gp::Hyperparameters>> saved =
+              ParseSavedHyperparameters(record.hyperparameters, config)) {
+        options.fit_kernel = false;
+        options.fit_noise = false;
+        options.fixed = *std::move(saved);
+      }
+    }
+    absl::StatusOr<gp::DynamicsModel> model =
+        gp::DynamicsModel::Create(std::move(options));
+    if (!model.ok()) {
+      return absl::Status(model.status().code(), absl::StrCat("session ", record.id, ": ",
+                                                              model.status().message()));
+    }
+    const int dx = config.state_dim();
+    const int du = config.input_dim();
+    const Eigen::Index n = static_cast<Eigen::Index>(samples.size());
+    Eigen::MatrixXd states(n, dx), inputs(n, du), next_states(n, dx);
+    int64_t last_sequence = -1;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const store::SampleRecord& s = samples[static_cast<size_t>(i)];
+      if (static_cast<int>(s.state.size()) != dx ||
+          static_cast<int>(s.input.size()) != du ||
+          static_cast<int>(s.next_state.size()) != dx) {
+        return absl::DataLossError(absl::StrCat("session ", record.id, ": stored sample ",
+                                                s.sequence, " has the wrong shape"));
+      }
+      states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.state.data(), dx);
+      inputs.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.input.data(), du);
+      next_states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.next_state.data(), dx);
+      last_sequence = std::max(last_sequence, s.sequence);
+    }
+    if (n > 0) {
+      if (absl::Status s = model->AddSamples(states, inputs, next_states); !s.ok()) {
+        return absl::Status(s.code(), absl::StrCat("session ", record.id,
+                                                   ": restoring samples: ", s.message()));
+      }
+    }
+    std::shared_ptr<Session> session(
+        new Session(record.id, std::move(config), *std::move(model), store));
+    absl::MutexLock lock(&session->mu_);
+    session->sample_count_ = n;
+    session->last_sequence_ = last_sequence;
+    session->model_version_ = record.model_version + n;
+    session->PublishInfo();
+    return session;
+  } catch (const std::exception& e) {
+    return InternalFromException(absl::StrCat("restoring session ", record.id), e);
+  }
+}
+
+v1::Session Session::Describe() const {
+  v1::Session proto;
+  proto.set_name(name_);
+  *proto.mutable_config() = config_;
+  absl::MutexLock lock(&info_mu_);
+  proto.set_sample_count(info_.sample_count);
+  proto.set_last_sequence(info_.last_sequence);
+  proto.set_model_version(info_.model_version);
+  for (const v1::OutputModel& output : info_.outputs) *proto.add_outputs() = output;
+  return proto;
+}
+
+void Session::PublishInfo() {
+  Info info;
+  info.sample_count = sample_count_;
+  info.last_sequence = last_sequence_;
+  info.model_version = model_version_;
+  if (model_.fitted()) {
+    const std::vector<gp::Hyperparameters> hyperparameters = model_.hyperparameters();
+    const std::vector<double> lml = model_.log_marginal_likelihoods();
+    for (size_t i = 0; i < hyperparameters.size(); ++i) {
+      v1::OutputModel output;
+      *output.mutable_hyperparameters() = ToProto(hyperparameters[i]);
+      if (i < lml.size()) output.set_log_marginal_likelihood(lml[i]);
+      info.outputs.push_back(std::move(output));
+    }
+  }
+  absl::MutexLock lock(&info_mu_);
+  info_ = std::move(info);
+}
+
+absl::Status Session::CheckUsable() {
+  if (deleted_) return NotDeleted(name_);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
+    const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
+    int64_t max_samples) {
+  const int dx = config_.state_dim();
+  const int du = config_.input_dim();
+  std::vector<store::SampleRecord> batch;
+  batch.reserve(static_cast<size_t>(transitions.size()));
+  for (const v1::Transition& t : transitions) {
+    store::SampleRecord record;
+    record.sequence = t.sequence();
+    record.state.assign(t.state().begin(), t.state().end());
+    record.input.assign(t.input().begin(), t.input().end());
+    record.next_state.assign(t.next_state().begin(), t.next_state().end());
+    record.timestamp_s = t.timestamp_s();
+    batch.push_back(std::move(record));
+  }
+
+  absl::MutexLock lock(&mu_);
+  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  v1::AddDataResponse response;
+  if (!batch.empty()) {
+    if (sample_count_ + static_cast<int64_t>(batch.size()) > max_samples) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "session ", name_, " has ", sample_count_, " samples; ", batch.size(),
+          " more would exceed the cap of ", max_samples, " per session"));
+    }
+    absl::StatusOr<store::InsertResult> inserted = store_->InsertSamples(id_, batch);
+    if (!inserted.ok()) {
+      if (absl::IsNotFound(inserted.status())) return NotDeleted(name_);
+      return absl::Status(inserted.status().code(),
+                          absl::StrCat("storing the samples of session ", name_, ": ",
+                                       inserted.status().message()));
+    }
+    const Eigen::Index n = inserted->stored_count;
+    if (n > 0) {
+      Eigen::MatrixXd states(n, dx), inputs(n, du), next_states(n, dx);
+      Eigen::Index row = 0;
+      for (size_t i = 0; i < batch.size(); ++i) {
+        if (!inserted->stored[i]) continue;
+        states.row(row) = Eigen::Map<const Eigen::RowVectorXd>(batch[i].state.data(), dx);
+        inputs.row(row) = Eigen::Map<const Eigen::RowVectorXd>(batch[i].input.data(), du);
+        next_states.row(row) =
+            Eigen::Map<const Eigen::RowVectorXd>(batch[i].next_state.data(), dx);
+        last_sequence_ = std::max(last_sequence_, batch[i].sequence);
+        ++row;
+      }
+      absl::Status added;
+      try {
+        added = model_.AddSamples(states, inputs, next_states);
+      } catch (const std::exception& e) {
+        added = InternalFromException("adding samples to the GP", e);
+      }
+      // The samples are stored whatever happens here; count them so that the
+      // session agrees with the store (and with itself after a restart).
+      sample_count_ += n;
+      ++model_version_;
+      if (!added.ok()) {
+        PublishInfo();
+        return absl::InternalError(absl::StrCat("session ", name_, ": ", n,
+                                                " samples were stored but the GP update "
+                                                "failed: ",
+                                                added.message()));
+      }
+    }
+    response.set_stored(inserted->stored_count);
+    response.set_duplicates(inserted->duplicate_count);
+  }
+  response.set_sample_count(sample_count_);
+  response.set_model_version(model_version_);
+  PublishInfo();
+  return response;
+}
+
+absl::Status Session::EnsureFitted() {
+  const int64_t min_samples = config_.refit().min_samples();
+  if (sample_count_ < min_samples) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "session ", name_, " has ", sample_count_, " samples; at least ", min_samples,
+        " are needed before Predict/PlanInputs: stream data with AddData first"));
+  }
+  const bool refit_due = config_.kernel().fit() && !config_.refit().never() &&
+                         model_.samples_since_fit() >= config_.refit().every_samples();
+  if (model_.fitted() && !refit_due) return absl::OkStatus();
+
+  absl::StatusOr<gp::FitSummary> summary;
+  try {
+    summary = model_.Refit();
+  } catch (const std::exception& e) {
+    summary = InternalFromException("refit", e);
+  }
+  if (!summary.ok()) {
+    return absl::InternalError(
+        absl::StrCat("refit of session ", name_, " with ", sample_count_,
+                     " samples failed: ", summary.status().message()));
+  }
+  ++model_version_;
+  PublishInfo();
+  if (LogEnabled(LogLevel::kDebug)) {
+    Log(LogLevel::kDebug,
+        absl::StrCat("refit ", name_, " n=", sample_count_, " starts=", summary->starts,
+                     " iterations=", summary->iterations, " failed_starts=",
+                     summary->failed_starts, " ms=", summary->wall_time_ms));
+  }
+  v1::Session saved;
+  {
+    absl::MutexLock lock(&info_mu_);
+    for (const v1::OutputModel& output : info_.outputs) *saved.add_outputs() = output;
+  }
+  if (absl::Status s =
+          store_->SaveModelState(id_, saved.SerializeAsString(), model_version_);
+      !s.ok()) {
+    Log(LogLevel::kWarning,
+        absl::StrCat("saving the hyperparameters of ", name_, " failed: ", s.ToString()));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& request) {
+  absl::MutexLock lock(&mu_);
+  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  if (absl::Status s = EnsureFitted(); !s.ok()) return s;
+  const int dx = config_.state_dim();
+  const int z_dim = dx + config_.input_dim();
+  const Eigen::Index m = request.inputs_size() / z_dim;
+  v1::PredictResponse response;
+  try {
+    const Eigen::MatrixXd z =
+        Eigen::Map<const RowMajorMatrix>(request.inputs().data(), m, z_dim);
+    Eigen::MatrixXd mean;
+    Eigen::MatrixXd variance;
+    model_.Predict(z, &mean, &variance, nullptr, nullptr);
+    if (mean.rows() != m || mean.cols() != dx || variance.rows() != m ||
+        variance.cols() != dx) {
+      return absl::InternalError(absl::StrCat("session ", name_,
+                                              ": the model returned a prediction of the "
+                                              "wrong shape"));
+    }
+    if (request.include_noise()) {
+      const Eigen::VectorXd noise = model_.noise_variances();
+      if (noise.size() == dx) variance.rowwise() += noise.transpose();
+    }
+    if (!mean.allFinite() || !variance.allFinite()) {
+      return absl::InternalError(
+          absl::StrCat("session ", name_, ": the model predicted non-finite numbers"));
+    }
+    AppendRowMajor(mean, response.mutable_mean());
+    AppendRowMajor(variance, response.mutable_variance());
+  } catch (const std::exception& e) {
+    return InternalFromException(absl::StrCat("Predict on ", name_), e);
+  }
+  response.set_model_version(model_version_);
+  return response;
+}
+
+absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
+    const v1::PlanInputsRequest& request, std::chrono::steady_clock::time_point deadline,
+    std::function<bool()> cancelled) {
+  absl::MutexLock lock(&mu_);
+  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  if (absl::Status s = EnsureFitted(); !s.ok()) return s;
+  if (cancelled && cancelled()) {
+    return absl::CancelledError("PlanInputs was cancelled by the client");
+  }
+  if (std::chrono::steady_clock::now() >= deadline) {
+    return absl::DeadlineExceededError(absl::StrCat(
+        "PlanInputs on ", name_, ": the deadline passed before planning started"));
+  }
+  const Eigen::VectorXd x0 =
+      Eigen::Map<const Eigen::VectorXd>(request.state().data(), request.state_size());
+  plan::PlanLimits limits;
+  limits.deadline = deadline;
+  limits.cancelled = std::move(cancelled);
+  plan::PlanSummary summary;
+  absl::StatusOr<plan::Plan> plan;
+  try {
+    plan = planner_.PlanInputs(model_, x0, limits, &summary);
+  } catch (const std::exception& e) {
+    plan = InternalFromException("planner", e);
+  }
+  if (!plan.ok()) {
+    const absl::StatusCode code = plan.status().code();
+    if (code == absl::StatusCode::kCancelled ||
+        code == absl::StatusCode::kDeadlineExceeded ||
+        code == absl::StatusCode::kInvalidArgument) {
+      return plan.status();
+    }
+    return absl::InternalError(absl::StrCat("planning for session ", name_,
+                                            " failed: ", plan.status().ToString()));
+  }
+  const int horizon = static_cast<int>(plan->inputs.rows());
+  if (horizon < 1 || plan->inputs.cols() != config_.input_dim() ||
+      plan->states.rows() != horizon || plan->states.cols() != config_.state_dim() ||
+      plan->variances.rows() != horizon ||
+      plan->variances.cols() != config_.state_dim()) {
+    return absl::InternalError(absl::StrCat("planning for session ", name_,
+                                            " returned a plan of the wrong shape"));
+  }
+  v1::PlanInputsResponse response;
+  AppendRowMajor(plan->inputs, response.mutable_inputs());
+  AppendRowMajor(plan->states, response.mutable_predicted_states());
+  AppendRowMajor(plan->variances, response.mutable_predicted_variances());
+  response.set_horizon(horizon);
+  response.set_apply_count(std::clamp(plan->apply_count, 1, horizon));
+  response.set_objective(summary.objective);
+  response.set_solver_status(ToProto(summary.status));
+  response.set_iterations(summary.iterations);
+  response.set_wall_time_ms(summary.wall_time_ms);
+  response.set_model_version(model_version_);
+  return response;
+}
+
+absl::Status Session::Delete() {
+  absl::MutexLock lock(&mu_);
+  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  absl::Status status = store_->DeleteSession(id_);
+  if (!status.ok() && !absl::IsNotFound(status)) return status;
+  deleted_ = true;
+  return absl::OkStatus();
+}
+
+}  // namespace excite::service

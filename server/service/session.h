@@ -1,0 +1,123 @@
+#ifndef EXCITE_SERVER_SERVICE_SESSION_H_
+#define EXCITE_SERVER_SERVICE_SESSION_H_
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
+#include "excite/v1/exploration_service.pb.h"
+#include "excite/v1/session_config.pb.h"
+#include "server/gp/dynamics_model.h"
+#include "server/plan/planner.h"
+#include "server/store/sqlite_store.h"
+#include "server/store/store_records.h"
+
+namespace excite::service {
+
+// One session: its validated config, GP dynamics model and planner.
+//
+// Thread-safety: all methods are thread-safe. Calls that touch the model
+// (AddTransitions, Predict, PlanInputs, Delete) are serialised per session;
+// different sessions run in parallel. Describe() never waits for them: it reads
+// a summary refreshed at the end of each call.
+//
+// Refit is lazy: Predict/PlanInputs refit first when the model was never fitted,
+// or when kernel.fit is on, refit.never is off and at least refit.every_samples
+// samples arrived since the last fit. After a refit the hyperparameters are saved
+// in the store (a failure to save is logged, not returned: they are a cache).
+class Session {
+ public:
+  // A new, empty session. `config` must have passed ValidateSessionConfig.
+  // `store` must outlive the session. Does not write the store.
+  static absl::StatusOr<std::shared_ptr<Session>> Create(std::string id,
+                                                         v1::SessionConfig config,
+                                                         store::SqliteStore* store);
+
+  // A session rebuilt from the store: its record and all its samples (in any
+  // order). The GP gets every sample; it is fitted lazily at first use. With
+  // refit.never the saved hyperparameters are reused as fixed ones, so a restart
+  // does not change them. model_version resumes at a value no lower than any
+  // served before the restart (saved version + sample count).
+  static absl::StatusOr<std::shared_ptr<Session>> Restore(
+      const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
+      store::SqliteStore* store);
+
+  const std::string& id() const { return id_; }
+  // "sessions/{id}".
+  const std::string& name() const { return name_; }
+  const v1::SessionConfig& config() const { return config_; }
+
+  // name, config, sample_count, last_sequence, model_version and (when fitted)
+  // outputs.
+  v1::Session Describe() const;
+
+  // One AddData message: validates it completely (request_validation.h), stores
+  // it durably (one transaction), then adds the newly stored transitions to the
+  // GP. The response counts this message only. NOT_FOUND if the session was
+  // deleted, RESOURCE_EXHAUSTED if the session would exceed `max_samples`.
+  absl::StatusOr<v1::AddDataResponse> AddTransitions(
+      const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
+      int64_t max_samples);
+
+  // Mean and latent (+ noise if asked) variance at each z. Inputs must have been
+  // checked with ValidatePredictInputs. FAILED_PRECONDITION before
+  // refit.min_samples samples.
+  absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request);
+
+  // Plans from `state` (checked with ValidatePlanState) within `deadline`,
+  // polling `cancelled`. DEADLINE_EXCEEDED if the deadline passed before a plan
+  // existed, CANCELLED if cancelled, FAILED_PRECONDITION before
+  // refit.min_samples samples.
+  absl::StatusOr<v1::PlanInputsResponse> PlanInputs(
+      const v1::PlanInputsRequest& request,
+      std::chrono::steady_clock::time_point deadline, std::function<bool()> cancelled);
+
+  // Marks the session deleted (later calls on it return NOT_FOUND) and removes it
+  // and its samples from the store. NOT_FOUND if already deleted.
+  absl::Status Delete();
+
+ private:
+  // What Describe() reports, refreshed under mu_ and read under info_mu_.
+  struct Info {
+    int64_t sample_count = 0;
+    int64_t last_sequence = -1;
+    int64_t model_version = 0;
+    std::vector<v1::OutputModel> outputs;
+  };
+
+  Session(std::string id, v1::SessionConfig config, gp::DynamicsModel model,
+          store::SqliteStore* store);
+
+  absl::Status CheckUsable() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // FAILED_PRECONDITION before min_samples, then the lazy refit.
+  absl::Status EnsureFitted() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  void PublishInfo() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+
+  const std::string id_;
+  const std::string name_;
+  const v1::SessionConfig config_;
+  store::SqliteStore* const store_;
+
+  absl::Mutex mu_;
+  gp::DynamicsModel model_ ABSL_GUARDED_BY(mu_);
+  plan::Planner planner_ ABSL_GUARDED_BY(mu_);
+  int64_t sample_count_ ABSL_GUARDED_BY(mu_) = 0;
+  int64_t last_sequence_ ABSL_GUARDED_BY(mu_) = -1;
+  int64_t model_version_ ABSL_GUARDED_BY(mu_) = 0;
+  bool deleted_ ABSL_GUARDED_BY(mu_) = false;
+
+  mutable absl::Mutex info_mu_ ABSL_ACQUIRED_AFTER(mu_);
+  Info info_ ABSL_GUARDED_BY(info_mu_);
+};
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_SESSION_H_

@@ -1,0 +1,159 @@
+#include "server/service/session_registry.h"
+
+#include <utility>
+
+#include "absl/strings/escaping.h"
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "server/service/config_validation.h"
+#include "server/service/logging.h"
+#include "server/service/resource_name.h"
+
+namespace excite::service {
+namespace {
+
+constexpr int32_t kDefaultPageSize = 50;
+constexpr int32_t kMaxPageSize = 1000;
+// Page tokens are "v1:" + the last id returned, web-safe base64 encoded.
+constexpr absl::string_view kTokenPrefix = "v1:";
+
+std::string EncodeToken(const std::string& last_id) {
+  return absl::WebSafeBase64Escape(absl::StrCat(kTokenPrefix, last_id));
+}
+
+absl::StatusOr<std::string> DecodeToken(const std::string& token) {
+  std::string decoded;
+  if (!absl::WebSafeBase64Unescape(token, &decoded) ||
+      decoded.compare(0, kTokenPrefix.size(), kTokenPrefix.data(), kTokenPrefix.size()) !=
+          0 ||
+      !IsValidSessionId(absl::string_view(decoded).substr(kTokenPrefix.size()))) {
+    return absl::InvalidArgumentError(
+        "page_token: not a token returned by ListSessions (pass next_page_token "
+        "unchanged, or empty for the first page)");
+  }
+  return decoded.substr(kTokenPrefix.size());
+}
+
+}  // namespace
+
+SessionRegistry::SessionRegistry(store::SqliteStore* store, int64_t max_sessions)
+    : store_(store), max_sessions_(max_sessions) {}
+
+absl::StatusOr<std::unique_ptr<SessionRegistry>> SessionRegistry::Load(
+    store::SqliteStore* store, int64_t max_sessions) {
+  std::unique_ptr<SessionRegistry> registry(new SessionRegistry(store, max_sessions));
+  absl::StatusOr<std::vector<store::SessionRecord>> records = store->LoadSessions();
+  if (!records.ok()) return records.status();
+  absl::MutexLock lock(&registry->mu_);
+  for (const store::SessionRecord& record : *records) {
+    absl::StatusOr<std::vector<store::SampleRecord>> samples =
+        store->LoadSamples(record.id);
+    if (!samples.ok()) return samples.status();
+    absl::StatusOr<std::shared_ptr<Session>> session =
+        Session::Restore(record, *samples, store);
+    if (!session.ok()) return session.status();
+    Log(LogLevel::kInfo, absl::StrCat("loaded ", (*session)->name(), " with ",
+                                      samples->size(), " samples"));
+    registry->sessions_.emplace(record.id, *std::move(session));
+  }
+  return registry;
+}
+
+std::string SessionRegistry::GenerateId() {
+  static constexpr char kAlphabet[] = "0123456789abcdefghijklmnopqrstuvwxyz";
+  while (true) {
+    std::string id = "s-";
+    for (int i = 0; i < 12; ++i) {
+      id.push_back(kAlphabet[absl::Uniform<size_t>(bitgen_, 0, sizeof(kAlphabet) - 1)]);
+    }
+    if (sessions_.find(id) == sessions_.end()) return id;
+  }
+}
+
+absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Create(
+    const std::string& session_id, const v1::SessionConfig& config) {
+  if (!session_id.empty() && !IsValidSessionId(session_id)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("session_id: \"", absl::CHexEscape(session_id.substr(0, 100)),
+                     "\" must be 1 to 63 characters [a-z0-9-]"));
+  }
+  absl::StatusOr<v1::SessionConfig> validated = ValidatedSessionConfig(config, "config");
+  if (!validated.ok()) return validated.status();
+
+  absl::MutexLock lock(&mu_);
+  const std::string id = session_id.empty() ? GenerateId() : session_id;
+  if (sessions_.count(id) > 0) {
+    return absl::AlreadyExistsError(
+        absl::StrCat("session ", SessionName(id), " already exists"));
+  }
+  if (static_cast<int64_t>(sessions_.size()) >= max_sessions_) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the server holds ", sessions_.size(), " sessions, its cap: delete one first"));
+  }
+  absl::StatusOr<std::shared_ptr<Session>> session =
+      Session::Create(id, *validated, store_);
+  if (!session.ok()) return session.status();
+  store::SessionRecord record;
+  record.id = id;
+  record.config = validated->SerializeAsString();
+  record.created_unix_ms = absl::ToUnixMillis(absl::Now());
+  if (absl::Status s = store_->CreateSession(record); !s.ok()) return s;
+  sessions_.emplace(id, *session);
+  return session;
+}
+
+absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Get(
+    const std::string& id) const {
+  absl::MutexLock lock(&mu_);
+  auto it = sessions_.find(id);
+  if (it == sessions_.end()) {
+    return absl::NotFoundError(absl::StrCat("session ", SessionName(id), " not found"));
+  }
+  return it->second;
+}
+
+absl::Status SessionRegistry::Delete(const std::string& id) {
+  absl::StatusOr<std::shared_ptr<Session>> session = Get(id);
+  if (!session.ok()) return session.status();
+  // Without the registry lock: a session may be busy planning for a while.
+  if (absl::Status s = (*session)->Delete(); !s.ok()) return s;
+  absl::MutexLock lock(&mu_);
+  auto it = sessions_.find(id);
+  if (it != sessions_.end() && it->second == *session) sessions_.erase(it);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<SessionRegistry::Page> SessionRegistry::List(
+    int32_t page_size, const std::string& page_token) const {
+  if (page_size < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("page_size: must be >= 0 (0 for the default ", kDefaultPageSize,
+                     "), got ", page_size));
+  }
+  if (page_size == 0) page_size = kDefaultPageSize;
+  if (page_size > kMaxPageSize) page_size = kMaxPageSize;
+  std::string after;
+  if (!page_token.empty()) {
+    absl::StatusOr<std::string> decoded = DecodeToken(page_token);
+    if (!decoded.ok()) return decoded.status();
+    after = *std::move(decoded);
+  }
+  Page page;
+  absl::MutexLock lock(&mu_);
+  auto it = after.empty() ? sessions_.begin() : sessions_.upper_bound(after);
+  for (; it != sessions_.end() && static_cast<int32_t>(page.sessions.size()) < page_size;
+       ++it) {
+    page.sessions.push_back(it->second);
+  }
+  if (it != sessions_.end() && !page.sessions.empty()) {
+    page.next_page_token = EncodeToken(page.sessions.back()->id());
+  }
+  return page;
+}
+
+int64_t SessionRegistry::size() const {
+  absl::MutexLock lock(&mu_);
+  return static_cast<int64_t>(sessions_.size());
+}
+
+}  // namespace excite::service

@@ -1,0 +1,67 @@
+#ifndef EXCITE_SERVER_SERVICE_SESSION_REGISTRY_H_
+#define EXCITE_SERVER_SERVICE_SESSION_REGISTRY_H_
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/random/random.h"
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
+#include "excite/v1/session_config.pb.h"
+#include "server/service/session.h"
+#include "server/store/sqlite_store.h"
+
+namespace excite::service {
+
+// All sessions of the server by id, backed by the store. Thread-safe; the
+// registry lock is held only for map operations and session creation, never
+// while a session works.
+class SessionRegistry {
+ public:
+  // Loads every stored session and its samples (GPs are rebuilt from the data and
+  // fitted lazily at first use). `store` must outlive the registry.
+  static absl::StatusOr<std::unique_ptr<SessionRegistry>> Load(store::SqliteStore* store,
+                                                               int64_t max_sessions);
+
+  // Creates and stores a session. `session_id` empty: a fresh id is generated.
+  // INVALID_ARGUMENT for a malformed id or config (field path under "config"),
+  // ALREADY_EXISTS for a taken id, RESOURCE_EXHAUSTED beyond max_sessions.
+  absl::StatusOr<std::shared_ptr<Session>> Create(const std::string& session_id,
+                                                  const v1::SessionConfig& config);
+
+  // NOT_FOUND "session sessions/x not found".
+  absl::StatusOr<std::shared_ptr<Session>> Get(const std::string& id) const;
+
+  // Deletes the session and its samples (store first). NOT_FOUND if unknown.
+  absl::Status Delete(const std::string& id);
+
+  struct Page {
+    std::vector<std::shared_ptr<Session>> sessions;
+    std::string next_page_token;  // empty on the last page
+  };
+  // Sessions in id order after `page_token` (an opaque token from a previous
+  // page). page_size: 0 means 50, larger than 1000 means 1000; negative is
+  // INVALID_ARGUMENT, as is a token this server did not produce.
+  absl::StatusOr<Page> List(int32_t page_size, const std::string& page_token) const;
+
+  int64_t size() const;
+
+ private:
+  SessionRegistry(store::SqliteStore* store, int64_t max_sessions);
+  std::string GenerateId() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+
+  store::SqliteStore* const store_;
+  const int64_t max_sessions_;
+  mutable absl::Mutex mu_;
+  std::map<std::string, std::shared_ptr<Session>> sessions_ ABSL_GUARDED_BY(mu_);
+  absl::BitGen bitgen_ ABSL_GUARDED_BY(mu_);
+};
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_SESSION_REGISTRY_H_
