@@ -1,0 +1,206 @@
+// End to end: the real excite-server and the real excite-sim as separate processes
+// over loopback, a short pendulum exploration with rec and with pa.
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <stdlib.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <regex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "tests/e2e/subprocess.h"
+
+namespace excite::testing {
+namespace {
+
+using std::chrono::seconds;
+
+constexpr char kListeningPrefix[] = "excite-server listening on ";
+
+// A fresh directory under the test's temp dir, removed at destruction.
+class TempDir {
+ public:
+  explicit TempDir(const std::string& name) {
+    std::string pattern = ::testing::TempDir() + "/" + name + "-XXXXXX";
+    path_ = mkdtemp(pattern.data()) != nullptr ? pattern : "";
+  }
+  ~TempDir() {
+    std::error_code ignored;
+    if (!path_.empty()) std::filesystem::remove_all(path_, ignored);
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// The number after "key": in a JSON text, if it is one.
+std::optional<double> JsonNumber(const std::string& json, const std::string& key) {
+  const std::regex pattern("\"" + key + "\": *([-+0-9.eE]+)");
+  std::smatch match;
+  if (!std::regex_search(json, match, pattern)) return std::nullopt;
+  return std::stod(match[1].str());
+}
+
+std::optional<std::string> JsonString(const std::string& json, const std::string& key) {
+  const std::regex pattern("\"" + key + "\": *\"([^\"]*)\"");
+  std::smatch match;
+  if (!std::regex_search(json, match, pattern)) return std::nullopt;
+  return match[1].str();
+}
+
+// rmse_history as (samples, rmse) pairs; a null rmse makes the list shorter.
+std::vector<std::pair<double, double>> RmseHistory(const std::string& json) {
+  std::vector<std::pair<double, double>> history;
+  const size_t start = json.find("\"rmse_history\"");
+  if (start == std::string::npos) return history;
+  const size_t end = json.find("]]", start);
+  const std::string list =
+      json.substr(start, end == std::string::npos ? 0 : end + 2 - start);
+  const std::regex pair(R"(\[([0-9]+), ([-+0-9.eE]+)\])");
+  for (auto it = std::sregex_iterator(list.begin(), list.end(), pair);
+       it != std::sregex_iterator(); ++it) {
+    history.emplace_back(std::stod((*it)[1].str()), std::stod((*it)[2].str()));
+  }
+  return history;
+}
+
+class EndToEndTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_FALSE(work_.path().empty());
+    ASSERT_TRUE(std::filesystem::create_directory(data_dir_));
+    auto server = Subprocess::Start(
+        {EXCITE_SERVER_PATH, "--listen=127.0.0.1:0", "--data_dir=" + data_dir_},
+        work_.path() + "/server.out", work_.path() + "/server.err");
+    ASSERT_TRUE(server.ok()) << server.status();
+    server_ = *std::move(server);
+    absl::StatusOr<std::string> line =
+        server_->WaitForStdoutLine(kListeningPrefix, seconds(30));
+    ASSERT_TRUE(line.ok()) << line.status() << "\nserver stderr:\n"
+                           << ReadFileOrEmpty(server_->stderr_path());
+    address_ = line->substr(std::string(kListeningPrefix).size());
+    ASSERT_FALSE(address_.empty());
+  }
+
+  // SIGTERM; the server must drain and exit 0.
+  void StopServer() {
+    server_->Signal(SIGTERM);
+    absl::StatusOr<int> code = server_->Wait(seconds(30));
+    ASSERT_TRUE(code.ok()) << code.status();
+    EXPECT_EQ(*code, 0) << "server stderr:\n" << ReadFileOrEmpty(server_->stderr_path());
+  }
+
+  // Runs excite-sim to completion; returns its exit code.
+  int RunSim(const std::vector<std::string>& extra_flags, const std::string& name,
+             seconds timeout) {
+    std::vector<std::string> argv = {EXCITE_SIM_PATH, "--server=" + address_,
+                                     "--config=" EXCITE_PENDULUM_CONFIG};
+    argv.insert(argv.end(), extra_flags.begin(), extra_flags.end());
+    sim_out_ = work_.path() + "/" + name + ".out";
+    sim_err_ = work_.path() + "/" + name + ".err";
+    auto sim = Subprocess::Start(argv, sim_out_, sim_err_);
+    EXPECT_TRUE(sim.ok()) << sim.status();
+    if (!sim.ok()) return -1;
+    absl::StatusOr<int> code = (*sim)->Wait(timeout);
+    EXPECT_TRUE(code.ok()) << code.status() << "\nexcite-sim stdout:\n"
+                           << ReadFileOrEmpty(sim_out_);
+    return code.ok() ? *code : -1;
+  }
+
+  // A short pendulum run with `strategy`; checks the summary.
+  void ExploreAndCheck(const std::string& strategy) {
+    const std::string summary_path = work_.path() + "/" + strategy + ".json";
+    const int code = RunSim({"--strategy=" + strategy, "--samples=70", "--seed=3",
+                             "--summary=" + summary_path},
+                            strategy, seconds(240));
+    const std::string out = ReadFileOrEmpty(sim_out_);
+    ASSERT_EQ(code, 0) << "excite-sim stdout:\n"
+                       << out << "\nstderr:\n"
+                       << ReadFileOrEmpty(sim_err_) << "\nserver stderr:\n"
+                       << ReadFileOrEmpty(server_->stderr_path());
+    std::cout << out;  // The run's progress lines, for the test log.
+    EXPECT_NE(out.find("step "), std::string::npos);
+    EXPECT_NE(out.find("summary written to " + summary_path), std::string::npos);
+
+    const std::string json = ReadFileOrEmpty(summary_path);
+    ASSERT_FALSE(json.empty());
+    EXPECT_EQ(JsonString(json, "system"), "pendulum");
+    EXPECT_EQ(JsonString(json, "strategy"), strategy);
+    EXPECT_TRUE(JsonString(json, "session").has_value());
+    EXPECT_EQ(JsonNumber(json, "samples"), 70.0);
+    for (const char* key :
+         {"final_rmse", "coverage_marginal", "coverage_joint", "plan_ms_p50", "wall_s"}) {
+      const std::optional<double> value = JsonNumber(json, key);
+      ASSERT_TRUE(value.has_value()) << key << " missing or null in\n" << json;
+      EXPECT_TRUE(std::isfinite(*value)) << key;
+      EXPECT_GE(*value, 0.0) << key;
+    }
+    EXPECT_GT(*JsonNumber(json, "coverage_marginal"), 0.0);
+    EXPECT_LE(*JsonNumber(json, "coverage_marginal"), 1.0);
+    EXPECT_LE(*JsonNumber(json, "coverage_joint"), 1.0);
+
+    const std::vector<std::pair<double, double>> history = RmseHistory(json);
+    ASSERT_EQ(history.size(), 7u) << json;  // Every 10 of 70 samples.
+    EXPECT_EQ(history.front().first, 10.0);
+    EXPECT_EQ(history.back().first, 70.0);
+    EXPECT_EQ(history.back().second, *JsonNumber(json, "final_rmse"));
+    EXPECT_LT(history.back().second, history.front().second) << json;
+  }
+
+  TempDir work_{"excite-e2e"};
+  std::string data_dir_ = work_.path() + "/data";
+  std::unique_ptr<Subprocess> server_;
+  std::string address_;
+  std::string sim_out_;
+  std::string sim_err_;
+};
+
+TEST_F(EndToEndTest, PendulumRecReducesRmse) {
+  ExploreAndCheck("rec");
+  StopServer();
+}
+
+TEST_F(EndToEndTest, PendulumPaReducesRmse) {
+  ExploreAndCheck("pa");
+  StopServer();
+}
+
+TEST(EndToEndNoServerTest, SimNamesTheUnreachableAddress) {
+  TempDir work("excite-e2e-noserver");
+  // Port 1 (tcpmux): nobody listens there on a test machine.
+  const std::string address = "127.0.0.1:1";
+  auto sim =
+      Subprocess::Start({EXCITE_SIM_PATH, "--server=" + address,
+                         "--config=" EXCITE_PENDULUM_CONFIG, "--connect_timeout_s=1"},
+                        work.path() + "/sim.out", work.path() + "/sim.err");
+  ASSERT_TRUE(sim.ok()) << sim.status();
+  absl::StatusOr<int> code = (*sim)->Wait(seconds(30));
+  ASSERT_TRUE(code.ok()) << code.status();
+  EXPECT_NE(*code, 0);
+  const std::string err = ReadFileOrEmpty(work.path() + "/sim.err");
+  EXPECT_NE(err.find(address), std::string::npos) << err;
+}
+
+TEST(EndToEndNoServerTest, SimRejectsUnknownStrategy) {
+  TempDir work("excite-e2e-badflag");
+  auto sim = Subprocess::Start({EXCITE_SIM_PATH, "--server=127.0.0.1:1",
+                                "--config=" EXCITE_PENDULUM_CONFIG, "--strategy=sep"},
+                               work.path() + "/sim.out", work.path() + "/sim.err");
+  ASSERT_TRUE(sim.ok()) << sim.status();
+  absl::StatusOr<int> code = (*sim)->Wait(seconds(30));
+  ASSERT_TRUE(code.ok()) << code.status();
+  EXPECT_NE(*code, 0);
+  EXPECT_NE(ReadFileOrEmpty(work.path() + "/sim.err").find("sep"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace excite::testing
