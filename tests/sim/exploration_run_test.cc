@@ -1,0 +1,232 @@
+// RunExploration against an in-process fake ExplorationService (no GP, no planner):
+// checks the loop's protocol — random steps before min_samples, apply_count, input
+// clipping, sequence numbers, AddData batches split at evaluation points, RMSE
+// schedule, session deletion — independently of the real server.
+
+#include "sim/exploration_run.h"
+
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "excite/v1/exploration_service.grpc.pb.h"
+#include "sim/plants/pendulum.h"
+#include "sim/plants/plant_factory.h"
+#include "sim/sim_config.h"
+
+namespace excite::sim {
+namespace {
+
+// Plans `planned_input` for every step; predicts x (no change) until
+// `exact_after` samples, then the true pendulum step.
+class FakeService final : public v1::ExplorationService::Service {
+ public:
+  explicit FakeService(const Plant* plant) : plant_(plant) {}
+
+  grpc::Status CreateSession(grpc::ServerContext*,
+                             const v1::CreateSessionRequest* request,
+                             v1::Session* reply) override {
+    std::lock_guard<std::mutex> lock(mu_);
+    config_ = request->config();
+    reply->set_name("sessions/fake");
+    *reply->mutable_config() = config_;
+    return grpc::Status::OK;
+  }
+  grpc::Status DeleteSession(grpc::ServerContext*,
+                             const v1::DeleteSessionRequest* request,
+                             v1::DeleteSessionResponse*) override {
+    std::lock_guard<std::mutex> lock(mu_);
+    deleted_.push_back(request->name());
+    return grpc::Status::OK;
+  }
+  grpc::Status AddData(grpc::ServerContext*,
+                       grpc::ServerReader<v1::AddDataRequest>* reader,
+                       v1::AddDataResponse* reply) override {
+    v1::AddDataRequest request;
+    std::lock_guard<std::mutex> lock(mu_);
+    int64_t stored = 0;
+    while (reader->Read(&request)) {
+      batch_sizes_.push_back(request.transitions_size());
+      for (const v1::Transition& t : request.transitions()) {
+        transitions_.push_back(t);
+        ++stored;
+      }
+    }
+    reply->set_stored(stored);
+    reply->set_sample_count(static_cast<int64_t>(transitions_.size()));
+    return grpc::Status::OK;
+  }
+  grpc::Status Predict(grpc::ServerContext*, const v1::PredictRequest* request,
+                       v1::PredictResponse* reply) override {
+    std::lock_guard<std::mutex> lock(mu_);
+    const bool exact = static_cast<int>(transitions_.size()) >= exact_after;
+    for (int p = 0; p < request->inputs_size() / 3; ++p) {
+      const Eigen::VectorXd x =
+          Eigen::Vector2d(request->inputs(3 * p), request->inputs(3 * p + 1));
+      const Eigen::VectorXd u = Eigen::VectorXd::Constant(1, request->inputs(3 * p + 2));
+      const Eigen::VectorXd mean = exact ? plant_->Step(x, u) : x;
+      reply->add_mean(mean(0));
+      reply->add_mean(mean(1));
+      reply->add_variance(1.0);
+      reply->add_variance(1.0);
+    }
+    return grpc::Status::OK;
+  }
+  grpc::Status PlanInputs(grpc::ServerContext*, const v1::PlanInputsRequest*,
+                          v1::PlanInputsResponse* reply) override {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++plan_calls_;
+    if (transitions_.size() < 2 || refuse_plans_) {
+      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, "need 2 samples");
+    }
+    const int horizon = config_.horizon();
+    for (int i = 0; i < horizon; ++i) reply->add_inputs(planned_input);
+    reply->set_horizon(horizon);
+    reply->set_apply_count(config_.strategy() == v1::STRATEGY_PA ? horizon : 1);
+    return grpc::Status::OK;
+  }
+
+  std::mutex mu_;
+  const Plant* plant_;
+  v1::SessionConfig config_;
+  std::vector<std::string> deleted_;
+  std::vector<int> batch_sizes_;
+  std::vector<v1::Transition> transitions_;
+  int plan_calls_ = 0;
+  int exact_after = 1000000;
+  double planned_input = 10.0;  // Outside the bounds: the client clips it.
+  bool refuse_plans_ = false;
+};
+
+class ExplorationRunTest : public testing::Test {
+ protected:
+  void SetUp() override {
+    config_ = *LoadSimConfig(std::string(EXCITE_SIM_CONFIG_DIR) + "/pendulum.textproto");
+    config_.mutable_evaluation()->set_points(50);
+    plant_ = *MakePlant(config_.plant());
+    service_ = std::make_unique<FakeService>(plant_.get());
+    grpc::ServerBuilder builder;
+    int port = 0;
+    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
+    builder.RegisterService(service_.get());
+    server_ = builder.BuildAndStart();
+    ASSERT_NE(server_, nullptr);
+    client_ = client::ExciteClient::Connect("127.0.0.1:" + std::to_string(port));
+  }
+  void TearDown() override { server_->Shutdown(); }
+
+  absl::StatusOr<RunSummary> Run(const ExplorationOptions& options = {}) {
+    return RunExploration(*client_, *plant_, config_, options);
+  }
+
+  v1::SimConfig config_;
+  std::unique_ptr<Plant> plant_;
+  std::unique_ptr<FakeService> service_;
+  std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<client::ExciteClient> client_;
+};
+
+TEST_F(ExplorationRunTest, RecAppliesOneClippedInputPerPlan) {
+  config_.set_samples(25);
+  std::ostringstream log;
+  ExplorationOptions options;
+  options.log = &log;
+  absl::StatusOr<RunSummary> summary = Run(options);
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->samples, 25);
+  EXPECT_EQ(summary->random_steps, 2);
+  EXPECT_EQ(summary->plans, 23);
+  EXPECT_EQ(summary->strategy, "rec");
+  EXPECT_EQ(summary->session, "sessions/fake");
+  ASSERT_EQ(summary->rmse_history.size(), 3u);
+  EXPECT_EQ(summary->rmse_history[0].samples, 10);
+  EXPECT_EQ(summary->rmse_history[1].samples, 20);
+  EXPECT_EQ(summary->rmse_history[2].samples, 25);
+  EXPECT_EQ(summary->final_rmse, summary->rmse_history[2].rmse);
+  EXPECT_NE(log.str().find("step 8 samples 10 rmse "), std::string::npos) << log.str();
+
+  const std::vector<v1::Transition>& t = service_->transitions_;
+  ASSERT_EQ(t.size(), 25u);
+  for (size_t k = 0; k < t.size(); ++k) {
+    EXPECT_EQ(t[k].sequence(), static_cast<int64_t>(k));
+    ASSERT_EQ(t[k].state_size(), 2);
+    ASSERT_EQ(t[k].input_size(), 1);
+    ASSERT_EQ(t[k].next_state_size(), 2);
+    if (k >= 2) {
+      EXPECT_EQ(t[k].input(0), 3.0);  // Planned 10, clipped to the bound.
+    }
+    EXPECT_LE(std::abs(t[k].input(0)), 3.0);
+    if (k > 0) {  // The measurement chain: y_{k+1} is the next transition's state.
+      EXPECT_EQ(t[k].state(0), t[k - 1].next_state(0));
+      EXPECT_EQ(t[k].state(1), t[k - 1].next_state(1));
+      EXPECT_NEAR(t[k].timestamp_s() - t[k - 1].timestamp_s(), 0.1, 1e-6);
+    }
+  }
+  // Noise is there: the first measured state is not exactly the initial state.
+  EXPECT_NE(t[0].state(0), 0.0);
+  ASSERT_EQ(service_->deleted_.size(), 1u);
+  EXPECT_EQ(service_->deleted_[0], "sessions/fake");
+}
+
+TEST_F(ExplorationRunTest, PaAppliesTheWholePlanAndSplitsBatchesAtEvaluations) {
+  config_.mutable_session()->set_strategy(v1::STRATEGY_PA);
+  config_.set_samples(40);
+  service_->exact_after = 30;
+  absl::StatusOr<RunSummary> summary = Run();
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->strategy, "pa");
+  EXPECT_EQ(summary->random_steps, 2);
+  EXPECT_EQ(summary->plans, 3);  // 2 random, then 15 + 15 + 8.
+  // Random 1, 1; plan 1 covers 2..16 split at 10; plan 2 17..31 split at 20, 30;
+  // plan 3 32..39 up to 40.
+  EXPECT_EQ(service_->batch_sizes_, (std::vector<int>{1, 1, 8, 7, 3, 10, 2, 8}));
+  ASSERT_EQ(summary->rmse_history.size(), 4u);
+  EXPECT_GT(summary->rmse_history[0].rmse, 0.1);
+  EXPECT_EQ(summary->rmse_history[0].rmse, summary->rmse_history[1].rmse);
+  EXPECT_EQ(summary->rmse_history[2].rmse, 0.0);  // The fake turned exact at 30.
+  EXPECT_EQ(summary->final_rmse, 0.0);
+  EXPECT_GT(summary->coverage_marginal, 0.0);
+  ASSERT_TRUE(summary->coverage_joint.has_value());
+  EXPECT_GT(*summary->coverage_joint, 0.0);
+}
+
+TEST_F(ExplorationRunTest, KeepSession) {
+  config_.set_samples(5);
+  ExplorationOptions options;
+  options.keep_session = true;
+  ASSERT_TRUE(Run(options).ok());
+  EXPECT_TRUE(service_->deleted_.empty());
+}
+
+TEST_F(ExplorationRunTest, FailedPreconditionAfterMinSamplesIsAnError) {
+  config_.set_samples(10);
+  service_->refuse_plans_ = true;
+  absl::StatusOr<RunSummary> summary = Run();
+  EXPECT_EQ(summary.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(summary.status().message().find("PlanInputs"), std::string::npos);
+  EXPECT_NE(summary.status().message().find("after 2 samples"), std::string::npos)
+      << summary.status();
+  EXPECT_EQ(service_->deleted_.size(), 1u);  // Cleaned up on failure too.
+}
+
+TEST_F(ExplorationRunTest, SameSeedSameData) {
+  config_.set_samples(6);
+  ASSERT_TRUE(Run().ok());
+  const std::vector<v1::Transition> first = service_->transitions_;
+  service_->transitions_.clear();
+  ASSERT_TRUE(Run().ok());
+  ASSERT_EQ(service_->transitions_.size(), first.size());
+  for (size_t k = 0; k < first.size(); ++k) {
+    EXPECT_EQ(service_->transitions_[k].next_state(0), first[k].next_state(0));
+    EXPECT_EQ(service_->transitions_[k].input(0), first[k].input(0));
+  }
+}
+
+}  // namespace
+}  // namespace excite::sim
