@@ -1,0 +1,93 @@
+// excite-server: the long-running gRPC service (see ../README.md).
+//
+// Prints exactly one line "excite-server listening on HOST:PORT" to stdout once
+// it accepts RPCs (other processes parse it to find the port). SIGTERM/SIGINT:
+// health NOT_SERVING, graceful shutdown (5 s grace), exit 0.
+
+#include <pthread.h>
+#include <signal.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <thread>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "absl/strings/str_cat.h"
+#include "server/service/excite_server.h"
+#include "server/service/logging.h"
+
+ABSL_FLAG(std::string, listen, "127.0.0.1:50051",
+          "Address to listen on, HOST:PORT; port 0 picks a free port (printed).");
+ABSL_FLAG(std::string, data_dir, "./.excite-data",
+          "Directory of the durable store (created if missing).");
+ABSL_FLAG(std::string, log_level, "info", "debug, info, warning or error.");
+ABSL_FLAG(int, max_message_mb, 64, "Largest gRPC message received or sent, in MiB.");
+ABSL_FLAG(int64_t, max_sessions, 10000, "Cap on the number of sessions.");
+ABSL_FLAG(int64_t, max_samples_per_session, 20000, "Cap on the samples of one session.");
+
+namespace {
+
+using excite::service::Log;
+using excite::service::LogLevel;
+
+int Run(int argc, char** argv) {
+  absl::SetProgramUsageMessage(
+      "excite-server [--listen=HOST:PORT] [--data_dir=DIR] [--log_level=LEVEL]");
+  absl::ParseCommandLine(argc, argv);
+
+  absl::StatusOr<LogLevel> level =
+      excite::service::ParseLogLevel(absl::GetFlag(FLAGS_log_level));
+  if (!level.ok()) {
+    std::fprintf(stderr, "excite-server: --log_level: %s\n",
+                 std::string(level.status().message()).c_str());
+    return 2;
+  }
+  excite::service::SetLogLevel(*level);
+
+  // Block the signals in every thread (gRPC's threads inherit the mask); one
+  // thread receives them with sigwait, so no work happens in a signal handler.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  excite::service::ServerOptions options;
+  options.listen = absl::GetFlag(FLAGS_listen);
+  options.data_dir = absl::GetFlag(FLAGS_data_dir);
+  options.max_message_mb = absl::GetFlag(FLAGS_max_message_mb);
+  options.limits.max_sessions = absl::GetFlag(FLAGS_max_sessions);
+  options.limits.max_samples_per_session = absl::GetFlag(FLAGS_max_samples_per_session);
+  absl::StatusOr<std::unique_ptr<excite::service::ExciteServer>> server =
+      excite::service::ExciteServer::Start(options);
+  if (!server.ok()) {
+    std::fprintf(stderr, "excite-server: %s\n", server.status().ToString().c_str());
+    return 1;
+  }
+
+  std::thread signal_thread([&signals, s = server->get()]() {
+    int signal = 0;
+    if (sigwait(&signals, &signal) != 0) return;
+    Log(LogLevel::kInfo,
+        absl::StrCat("received ", signal == SIGTERM ? "SIGTERM" : "SIGINT",
+                     ": draining (grace 5 s)"));
+    s->Shutdown(std::chrono::seconds(5));
+  });
+
+  std::printf("excite-server listening on %s\n", (*server)->address().c_str());
+  std::fflush(stdout);
+
+  (*server)->Wait();
+  signal_thread.join();
+  server->reset();
+  Log(LogLevel::kInfo, "stopped");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return Run(argc, argv); }
