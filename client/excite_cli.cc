@@ -1,0 +1,233 @@
+// excite: command-line client of excite-server.
+//
+//   excite [--server=HOST:PORT] sessions list
+//   excite sessions get NAME
+//   excite sessions create --config FILE [--id ID]
+//   excite sessions delete NAME
+//   excite predict --session NAME --z 'x1,..,u1,..[,x1,..]' [--include_noise]
+//   excite plan --session NAME --state 'x1,x2,..'
+//
+// NAME is "sessions/{id}" or just the id. Exit status: 0 on success, 1 when the
+// server returns an error (printed with its gRPC code name), 2 on a usage error.
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "absl/status/status.h"
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+#include "client/excite_client.h"
+#include "google/protobuf/text_format.h"
+#include "server/service/config_text.h"
+
+ABSL_FLAG(std::string, server, "127.0.0.1:50051", "excite-server address HOST:PORT.");
+ABSL_FLAG(std::string, config, "", "sessions create: SessionConfig textproto file.");
+ABSL_FLAG(std::string, id, "", "sessions create: session id (generated if empty).");
+ABSL_FLAG(std::string, session, "", "predict/plan: session NAME.");
+ABSL_FLAG(std::string, z, "", "predict: comma-separated z = (x, u) points, row-major.");
+ABSL_FLAG(bool, include_noise, false, "predict: add the noise variance.");
+ABSL_FLAG(std::string, state, "", "plan: comma-separated current state.");
+ABSL_FLAG(int, page_size, 0, "sessions list: page size (0: server default).");
+ABSL_FLAG(int, timeout_s, 60, "Deadline of each call in seconds.");
+
+namespace {
+
+constexpr char kUsage[] =
+    "excite [--server=HOST:PORT] COMMAND\n"
+    "  sessions list\n"
+    "  sessions get NAME\n"
+    "  sessions create --config FILE [--id ID]\n"
+    "  sessions delete NAME\n"
+    "  predict --session NAME --z 'v1,v2,...' [--include_noise]\n"
+    "  plan --session NAME --state 'x1,x2,...'\n"
+    "NAME is sessions/{id} or {id}.";
+
+int UsageError(const std::string& message) {
+  std::fprintf(stderr, "excite: %s\nusage:\n%s\n", message.c_str(), kUsage);
+  return 2;
+}
+
+int Fail(const absl::Status& status) {
+  std::fprintf(stderr, "excite: %s: %s\n",
+               absl::StatusCodeToString(status.code()).c_str(),
+               std::string(status.message()).c_str());
+  return 1;
+}
+
+std::string FullName(const std::string& name) {
+  return absl::StartsWith(name, "sessions/") ? name : absl::StrCat("sessions/", name);
+}
+
+bool ParseNumbers(const std::string& text, std::vector<double>* values) {
+  values->clear();
+  for (absl::string_view part : absl::StrSplit(text, ',', absl::SkipWhitespace())) {
+    double v = 0.0;
+    if (!absl::SimpleAtod(absl::StripAsciiWhitespace(part), &v)) return false;
+    values->push_back(v);
+  }
+  return !values->empty();
+}
+
+std::string Row(const google::protobuf::RepeatedField<double>& values, int row,
+                int cols) {
+  std::vector<std::string> parts;
+  for (int j = 0; j < cols; ++j) {
+    const int index = row * cols + j;
+    if (index < values.size()) parts.push_back(absl::StrFormat("%10.4g", values[index]));
+  }
+  return absl::StrJoin(parts, " ");
+}
+
+std::string StrategyName(excite::v1::Strategy strategy) {
+  return excite::v1::Strategy_Name(strategy);
+}
+
+int ListSessions(excite::client::ExciteClient& client) {
+  std::string token;
+  int count = 0;
+  do {
+    absl::StatusOr<excite::v1::ListSessionsResponse> page =
+        client.ListSessions(absl::GetFlag(FLAGS_page_size), token);
+    if (!page.ok()) return Fail(page.status());
+    for (const excite::v1::Session& s : page->sessions()) {
+      std::printf(
+          "%-40s state_dim=%d input_dim=%d strategy=%s horizon=%d samples=%lld "
+          "model_version=%lld\n",
+          s.name().c_str(), s.config().state_dim(), s.config().input_dim(),
+          StrategyName(s.config().strategy()).c_str(), s.config().horizon(),
+          static_cast<long long>(s.sample_count()),
+          static_cast<long long>(s.model_version()));
+      ++count;
+    }
+    token = page->next_page_token();
+  } while (!token.empty());
+  if (count == 0) std::printf("no sessions\n");
+  return 0;
+}
+
+int PrintSession(const excite::v1::Session& session) {
+  std::string text;
+  google::protobuf::TextFormat::PrintToString(session, &text);
+  std::printf("%s", text.c_str());
+  return 0;
+}
+
+int Sessions(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
+  if (args.size() < 2) return UsageError("sessions: missing sub-command");
+  const std::string& verb = args[1];
+  if (verb == "list") {
+    if (args.size() != 2) return UsageError("sessions list takes no argument");
+    return ListSessions(client);
+  }
+  if (verb == "get" || verb == "delete") {
+    if (args.size() != 3) return UsageError(absl::StrCat("sessions ", verb, " NAME"));
+    const std::string name = FullName(args[2]);
+    if (verb == "get") {
+      absl::StatusOr<excite::v1::Session> session = client.GetSession(name);
+      if (!session.ok()) return Fail(session.status());
+      return PrintSession(*session);
+    }
+    if (absl::Status s = client.DeleteSession(name); !s.ok()) return Fail(s);
+    std::printf("deleted %s\n", name.c_str());
+    return 0;
+  }
+  if (verb == "create") {
+    if (args.size() != 2) return UsageError("sessions create --config FILE [--id ID]");
+    if (absl::GetFlag(FLAGS_config).empty())
+      return UsageError("sessions create: --config");
+    absl::StatusOr<excite::v1::SessionConfig> config =
+        excite::service::LoadSessionConfigFile(absl::GetFlag(FLAGS_config));
+    if (!config.ok()) return Fail(config.status());
+    absl::StatusOr<excite::v1::Session> session =
+        client.CreateSession(*config, absl::GetFlag(FLAGS_id));
+    if (!session.ok()) return Fail(session.status());
+    std::printf("created %s\n", session->name().c_str());
+    return PrintSession(*session);
+  }
+  return UsageError(absl::StrCat("sessions: unknown sub-command \"", verb, "\""));
+}
+
+int Predict(excite::client::ExciteClient& client) {
+  if (absl::GetFlag(FLAGS_session).empty()) return UsageError("predict: --session");
+  excite::v1::PredictRequest request;
+  request.set_session(FullName(absl::GetFlag(FLAGS_session)));
+  std::vector<double> z;
+  if (!ParseNumbers(absl::GetFlag(FLAGS_z), &z)) {
+    return UsageError("predict: --z must be comma-separated numbers");
+  }
+  for (double v : z) request.add_inputs(v);
+  request.set_include_noise(absl::GetFlag(FLAGS_include_noise));
+  absl::StatusOr<excite::v1::PredictResponse> response = client.Predict(request);
+  if (!response.ok()) return Fail(response.status());
+  absl::StatusOr<excite::v1::Session> session = client.GetSession(request.session());
+  const int dx = session.ok() ? session->config().state_dim() : response->mean_size();
+  const int points = dx > 0 ? response->mean_size() / dx : 0;
+  std::printf("model_version %lld\n", static_cast<long long>(response->model_version()));
+  for (int i = 0; i < points; ++i) {
+    std::printf("point %d\n  mean     %s\n  variance %s\n", i,
+                Row(response->mean(), i, dx).c_str(),
+                Row(response->variance(), i, dx).c_str());
+  }
+  return 0;
+}
+
+int Plan(excite::client::ExciteClient& client) {
+  if (absl::GetFlag(FLAGS_session).empty()) return UsageError("plan: --session");
+  std::vector<double> state;
+  if (!ParseNumbers(absl::GetFlag(FLAGS_state), &state)) {
+    return UsageError("plan: --state must be comma-separated numbers");
+  }
+  absl::StatusOr<excite::v1::PlanInputsResponse> plan =
+      client.PlanInputs(FullName(absl::GetFlag(FLAGS_session)), state);
+  if (!plan.ok()) return Fail(plan.status());
+  const int horizon = plan->horizon();
+  const int du = horizon > 0 ? plan->inputs_size() / horizon : 0;
+  const int dx = horizon > 0 ? plan->predicted_states_size() / horizon : 0;
+  std::printf("horizon %d, apply the first %d input(s)\n", horizon, plan->apply_count());
+  std::printf(
+      "solver %s, %d iterations, %.1f ms, objective %.6g nats, model_version %lld\n",
+      excite::v1::SolverStatus_Name(plan->solver_status()).c_str(), plan->iterations(),
+      plan->wall_time_ms(), plan->objective(),
+      static_cast<long long>(plan->model_version()));
+  std::printf("%4s | %-*s | %-*s | %s\n", "step", 11 * du - 1, "input", 11 * dx - 1,
+              "predicted state", "latent variance");
+  for (int i = 0; i < horizon; ++i) {
+    std::printf("%4d | %s | %s | %s\n", i, Row(plan->inputs(), i, du).c_str(),
+                Row(plan->predicted_states(), i, dx).c_str(),
+                Row(plan->predicted_variances(), i, dx).c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage(kUsage);
+  std::vector<char*> positional = absl::ParseCommandLine(argc, argv);
+  std::vector<std::string> args(positional.begin() + 1, positional.end());
+  if (args.empty()) return UsageError("missing command");
+
+  excite::client::ClientOptions options;
+  const int timeout_s = absl::GetFlag(FLAGS_timeout_s);
+  if (timeout_s < 1) return UsageError("--timeout_s must be >= 1");
+  options.default_deadline = std::chrono::seconds(timeout_s);
+  options.plan_deadline = std::chrono::seconds(timeout_s);
+  std::unique_ptr<excite::client::ExciteClient> client =
+      excite::client::ExciteClient::Connect(absl::GetFlag(FLAGS_server), options);
+
+  const std::string& command = args[0];
+  if (command == "sessions") return Sessions(*client, args);
+  if (args.size() != 1) return UsageError(absl::StrCat(command, " takes no argument"));
+  if (command == "predict") return Predict(*client);
+  if (command == "plan") return Plan(*client);
+  return UsageError(absl::StrCat("unknown command \"", command, "\""));
+}

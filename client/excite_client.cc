@@ -1,0 +1,151 @@
+#include "client/excite_client.h"
+
+#include <utility>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "grpcpp/create_channel.h"
+#include "grpcpp/security/credentials.h"
+
+namespace excite::client {
+namespace {
+
+absl::Status FromGrpc(const grpc::Status& status) {
+  if (status.ok()) return absl::OkStatus();
+  const int code = static_cast<int>(status.error_code());
+  const absl::StatusCode absl_code = code >= 1 && code <= 16
+                                         ? static_cast<absl::StatusCode>(code)
+                                         : absl::StatusCode::kUnknown;
+  return absl::Status(absl_code, status.error_message());
+}
+
+void SetDeadline(grpc::ClientContext* context, std::chrono::milliseconds timeout) {
+  context->set_deadline(std::chrono::system_clock::now() + timeout);
+}
+
+}  // namespace
+
+ExciteClient::ExciteClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options)
+    : channel_(std::move(channel)),
+      stub_(v1::ExplorationService::NewStub(channel_)),
+      options_(options) {}
+
+std::unique_ptr<ExciteClient> ExciteClient::Connect(const std::string& target,
+                                                    ClientOptions options) {
+  grpc::ChannelArguments args;
+  // Match the server's default message cap (64 MiB) for large Predict batches.
+  args.SetMaxReceiveMessageSize(64 * 1024 * 1024);
+  args.SetMaxSendMessageSize(64 * 1024 * 1024);
+  std::shared_ptr<grpc::Channel> channel =
+      grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
+  return std::unique_ptr<ExciteClient>(new ExciteClient(std::move(channel), options));
+}
+
+absl::Status ExciteClient::WaitForReady(std::chrono::milliseconds timeout) {
+  if (channel_->WaitForConnected(std::chrono::system_clock::now() + timeout)) {
+    return absl::OkStatus();
+  }
+  return absl::UnavailableError(
+      absl::StrCat("could not connect within ", timeout.count(), " ms"));
+}
+
+absl::StatusOr<v1::Session> ExciteClient::CreateSession(const v1::SessionConfig& config,
+                                                        const std::string& session_id) {
+  grpc::ClientContext context;
+  SetDeadline(&context, options_.default_deadline);
+  v1::CreateSessionRequest request;
+  request.set_session_id(session_id);
+  *request.mutable_config() = config;
+  v1::Session response;
+  if (absl::Status s = FromGrpc(stub_->CreateSession(&context, request, &response));
+      !s.ok()) {
+    return s;
+  }
+  return response;
+}
+
+absl::StatusOr<v1::Session> ExciteClient::GetSession(const std::string& name) {
+  grpc::ClientContext context;
+  SetDeadline(&context, options_.default_deadline);
+  v1::GetSessionRequest request;
+  request.set_name(name);
+  v1::Session response;
+  if (absl::Status s = FromGrpc(stub_->GetSession(&context, request, &response));
+      !s.ok()) {
+    return s;
+  }
+  return response;
+}
+
+absl::StatusOr<v1::ListSessionsResponse> ExciteClient::ListSessions(
+    int page_size, const std::string& page_token) {
+  grpc::ClientContext context;
+  SetDeadline(&context, options_.default_deadline);
+  v1::ListSessionsRequest request;
+  request.set_page_size(page_size);
+  request.set_page_token(page_token);
+  v1::ListSessionsResponse response;
+  if (absl::Status s = FromGrpc(stub_->ListSessions(&context, request, &response));
+      !s.ok()) {
+    return s;
+  }
+  return response;
+}
+
+absl::Status ExciteClient::DeleteSession(const std::string& name) {
+  grpc::ClientContext context;
+  SetDeadline(&context, options_.default_deadline);
+  v1::DeleteSessionRequest request;
+  request.set_name(name);
+  v1::DeleteSessionResponse response;
+  return FromGrpc(stub_->DeleteSession(&context, request, &response));
+}
+
+absl::StatusOr<v1::AddDataResponse> ExciteClient::AddData(
+    const std::string& session, const std::vector<std::vector<v1::Transition>>& batches) {
+  grpc::ClientContext context;
+  SetDeadline(&context, options_.default_deadline);
+  v1::AddDataResponse response;
+  std::unique_ptr<grpc::ClientWriter<v1::AddDataRequest>> writer =
+      stub_->AddData(&context, &response);
+  for (size_t i = 0; i < batches.size(); ++i) {
+    v1::AddDataRequest request;
+    request.set_session(session);
+    request.mutable_transitions()->Reserve(static_cast<int>(batches[i].size()));
+    for (const v1::Transition& t : batches[i]) *request.add_transitions() = t;
+    // A failed write means the stream is closed (the server answered early with
+    // an error): Finish() below carries the reason.
+    if (!writer->Write(request)) break;
+  }
+  writer->WritesDone();
+  if (absl::Status s = FromGrpc(writer->Finish()); !s.ok()) return s;
+  return response;
+}
+
+absl::StatusOr<v1::PredictResponse> ExciteClient::Predict(
+    const v1::PredictRequest& request) {
+  grpc::ClientContext context;
+  SetDeadline(&context, options_.default_deadline);
+  v1::PredictResponse response;
+  if (absl::Status s = FromGrpc(stub_->Predict(&context, request, &response)); !s.ok()) {
+    return s;
+  }
+  return response;
+}
+
+absl::StatusOr<v1::PlanInputsResponse> ExciteClient::PlanInputs(
+    const std::string& session, const std::vector<double>& state) {
+  grpc::ClientContext context;
+  SetDeadline(&context, options_.plan_deadline);
+  v1::PlanInputsRequest request;
+  request.set_session(session);
+  for (double x : state) request.add_state(x);
+  v1::PlanInputsResponse response;
+  if (absl::Status s = FromGrpc(stub_->PlanInputs(&context, request, &response));
+      !s.ok()) {
+    return s;
+  }
+  return response;
+}
+
+}  // namespace excite::client
