@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "google/protobuf/io/tokenizer.h"
 #include "google/protobuf/text_format.h"
+#include "server/service/config_validation.h"
 #include "sim/plants/plant_factory.h"
 
 namespace excite::sim {
@@ -81,6 +82,12 @@ absl::StatusOr<v1::SimConfig> LoadSimConfig(const std::string& path) {
 }
 
 absl::Status ValidateSimConfig(const v1::SimConfig& config) {
+  // The session part by the server's own rules (the same code as on the wire).
+  if (absl::StatusOr<v1::SessionConfig> session =
+          service::ValidatedSessionConfig(config.session(), "session");
+      !session.ok()) {
+    return session.status();
+  }
   absl::StatusOr<std::unique_ptr<Plant>> plant = MakePlant(config.plant());
   if (!plant.ok()) return plant.status();
   const v1::SessionConfig& session = config.session();

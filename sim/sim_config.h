@@ -21,11 +21,12 @@ absl::StatusOr<v1::SimConfig> LoadSimConfig(const std::string& path);
 absl::StatusOr<v1::SimConfig> ParseSimConfig(absl::string_view text);
 
 // The checks excite-sim needs before it starts (INVALID_ARGUMENT naming the field):
-// a plant the factory accepts whose dims equal session.state_dim/input_dim;
-// session.input_bounds and session.state_bounds (the region of interest, required
-// here) with one finite lower < upper interval per dimension; noise.variance > 0;
-// horizon >= 1; samples >= 1; evaluation points, every_samples, marginal_bins and
-// joint_bins >= 1. The server validates the rest of the session config itself.
+// session passes the server's ValidateSessionConfig (server/service/
+// config_validation.h, fields named "session.<field>"); and, on top of it, a plant the
+// factory accepts whose dims equal session.state_dim/input_dim; session.input_bounds and
+// session.state_bounds (the region of interest, required here) with one finite lower <
+// upper interval per dimension; noise.variance > 0; horizon >= 1; samples >= 1;
+// evaluation points, every_samples, marginal_bins and joint_bins >= 1.
 absl::Status ValidateSimConfig(const v1::SimConfig& config);
 
 // Command-line overrides of a config (unset members leave it unchanged).

@@ -89,6 +89,13 @@ TEST(SimConfigTest, ValidationErrors) {
     c.mutable_session()->mutable_noise()->set_variance(0.0);
     EXPECT_NE(ValidateSimConfig(c).message().find("noise"), std::string::npos);
   }
+  {  // The server's own rules apply to the session part.
+    v1::SimConfig c = good;
+    c.mutable_session()->mutable_kernel()->set_fit(false);
+    const absl::Status status = ValidateSimConfig(c);
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(status.message().find("session."), std::string::npos) << status;
+  }
   {
     v1::SimConfig c = good;
     c.mutable_plant()->clear_pendulum();
