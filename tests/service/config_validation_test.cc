@@ -1,0 +1,268 @@
+#include "server/service/config_validation.h"
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+#include "server/service/config_text.h"
+
+namespace excite::service {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr char kPendulum[] = R"pb(
+  state_dim: 2
+  input_dim: 1
+  input_bounds { lower: -5 upper: 5 }
+  state_bounds { lower: -3.2 upper: 3.2 }
+  state_bounds { lower: -8 upper: 8 }
+  noise { variance: 0.05 fit: true }
+  kernel { fit: true }
+)pb";
+
+v1::SessionConfig Valid() {
+  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(kPendulum);
+  EXPECT_TRUE(config.ok()) << config.status();
+  return *config;
+}
+
+// Expects INVALID_ARGUMENT whose message starts with `field` and contains `what`.
+void ExpectInvalid(v1::SessionConfig config, const std::string& field,
+                   const std::string& what = "") {
+  absl::Status status = ValidateSessionConfig(&config);
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+  EXPECT_THAT(std::string(status.message()), ::testing::StartsWith(field + ":"))
+      << status;
+  EXPECT_THAT(std::string(status.message()), HasSubstr(what)) << status;
+}
+
+TEST(ConfigValidationTest, FillsDocumentedDefaults) {
+  v1::SessionConfig config = Valid();
+  ASSERT_TRUE(ValidateSessionConfig(&config).ok());
+  EXPECT_EQ(config.target(), v1::TARGET_DELTA);
+  EXPECT_EQ(config.strategy(), v1::STRATEGY_REC);
+  EXPECT_EQ(config.horizon(), 15);
+  EXPECT_EQ(config.kernel().lengthscale_bounds().lower(), 0.05);
+  EXPECT_EQ(config.kernel().lengthscale_bounds().upper(), 50.0);
+  EXPECT_EQ(config.kernel().signal_variance_bounds().lower(), 0.01);
+  EXPECT_EQ(config.kernel().signal_variance_bounds().upper(), 100.0);
+  EXPECT_EQ(config.kernel().restarts(), 2);
+  EXPECT_EQ(config.kernel().max_iterations(), 60);
+  EXPECT_EQ(config.refit().every_samples(), 1);
+  EXPECT_EQ(config.refit().min_samples(), 2);
+  EXPECT_FALSE(config.refit().never());
+  EXPECT_EQ(config.planner().max_iterations(), 100);
+  EXPECT_EQ(config.planner().restarts(), 1);
+  EXPECT_EQ(config.planner().tolerance(), 1e-4);
+  EXPECT_EQ(config.planner().time_budget_s(), 10.0);
+  // Idempotent: a validated config validates to itself.
+  v1::SessionConfig again = config;
+  ASSERT_TRUE(ValidateSessionConfig(&again).ok());
+  EXPECT_EQ(again.SerializeAsString(), config.SerializeAsString());
+}
+
+TEST(ConfigValidationTest, KeepsExplicitValues) {
+  v1::SessionConfig config = Valid();
+  config.set_horizon(7);
+  config.set_strategy(v1::STRATEGY_PA);
+  config.set_target(v1::TARGET_NEXT);
+  config.mutable_planner()->set_time_budget_s(0.5);
+  config.mutable_refit()->set_every_samples(5);
+  config.mutable_refit()->set_min_samples(10);
+  ASSERT_TRUE(ValidateSessionConfig(&config).ok());
+  EXPECT_EQ(config.horizon(), 7);
+  EXPECT_EQ(config.strategy(), v1::STRATEGY_PA);
+  EXPECT_EQ(config.target(), v1::TARGET_NEXT);
+  EXPECT_EQ(config.planner().time_budget_s(), 0.5);
+  EXPECT_EQ(config.refit().every_samples(), 5);
+  EXPECT_EQ(config.refit().min_samples(), 10);
+}
+
+TEST(ConfigValidationTest, GreedyForcesHorizonOne) {
+  v1::SessionConfig config = Valid();
+  config.set_strategy(v1::STRATEGY_GREEDY);
+  config.set_horizon(15);
+  ASSERT_TRUE(ValidateSessionConfig(&config).ok());
+  EXPECT_EQ(config.horizon(), 1);
+}
+
+TEST(ConfigValidationTest, Dimensions) {
+  v1::SessionConfig c = Valid();
+  c.set_state_dim(0);
+  ExpectInvalid(c, "config.state_dim", "[1, 64]");
+  c = Valid();
+  c.set_state_dim(65);
+  ExpectInvalid(c, "config.state_dim");
+  c = Valid();
+  c.set_input_dim(0);
+  ExpectInvalid(c, "config.input_dim", "[1, 32]");
+  c = Valid();
+  c.set_input_dim(33);
+  ExpectInvalid(c, "config.input_dim");
+}
+
+TEST(ConfigValidationTest, InputBounds) {
+  v1::SessionConfig c = Valid();
+  c.add_input_bounds()->set_upper(1);
+  ExpectInvalid(c, "config.input_bounds", "must have input_dim (1) entries, got 2");
+  c = Valid();
+  c.clear_input_bounds();
+  ExpectInvalid(c, "config.input_bounds", "got 0");
+  c = Valid();
+  c.mutable_input_bounds(0)->set_lower(2);
+  c.mutable_input_bounds(0)->set_upper(1);
+  ExpectInvalid(c, "config.input_bounds[0]", "lower (2) must be < upper (1)");
+  c = Valid();
+  c.mutable_input_bounds(0)->set_upper(-5);
+  ExpectInvalid(c, "config.input_bounds[0]", "must be < upper");
+  c = Valid();
+  c.mutable_input_bounds(0)->set_upper(std::numeric_limits<double>::infinity());
+  ExpectInvalid(c, "config.input_bounds[0]", "finite");
+  c = Valid();
+  c.mutable_input_bounds(0)->set_lower(std::nan(""));
+  ExpectInvalid(c, "config.input_bounds[0]", "finite");
+}
+
+TEST(ConfigValidationTest, StateBounds) {
+  v1::SessionConfig c = Valid();
+  c.clear_state_bounds();
+  EXPECT_TRUE(ValidateSessionConfig(&c).ok());  // 0 entries are allowed
+  c = Valid();
+  c.mutable_state_bounds()->RemoveLast();
+  ExpectInvalid(c, "config.state_bounds", "0 or state_dim (2) entries, got 1");
+  c = Valid();
+  c.mutable_state_bounds(1)->set_lower(8);
+  ExpectInvalid(c, "config.state_bounds[1]", "lower (8) must be < upper (8)");
+}
+
+TEST(ConfigValidationTest, Noise) {
+  v1::SessionConfig c = Valid();
+  c.clear_noise();
+  ExpectInvalid(c, "config.noise.variance", "> 0, got 0");
+  c = Valid();
+  c.mutable_noise()->set_variance(-1);
+  ExpectInvalid(c, "config.noise.variance");
+  c = Valid();
+  c.mutable_noise()->set_variance(std::numeric_limits<double>::infinity());
+  ExpectInvalid(c, "config.noise.variance");
+}
+
+v1::SessionConfig FixedKernel() {
+  v1::SessionConfig c = Valid();
+  c.mutable_noise()->set_fit(false);
+  c.mutable_kernel()->set_fit(false);
+  for (int i = 0; i < 2; ++i) {
+    v1::Hyperparameters* h = c.mutable_kernel()->add_fixed();
+    h->set_signal_variance(1.0);
+    for (int l = 0; l < 3; ++l) h->add_lengthscales(1.0);
+    h->set_noise_variance(0.1);
+  }
+  return c;
+}
+
+TEST(ConfigValidationTest, FixedKernel) {
+  v1::SessionConfig c = FixedKernel();
+  EXPECT_TRUE(ValidateSessionConfig(&c).ok());
+  c = FixedKernel();
+  c.mutable_kernel()->mutable_fixed()->RemoveLast();
+  ExpectInvalid(c, "config.kernel.fixed",
+                "state_dim (2) entries when kernel.fit is false");
+  c = FixedKernel();
+  c.mutable_kernel()->mutable_fixed(1)->set_signal_variance(0);
+  ExpectInvalid(c, "config.kernel.fixed[1].signal_variance", "> 0");
+  c = FixedKernel();
+  c.mutable_kernel()->mutable_fixed(0)->add_lengthscales(1.0);
+  ExpectInvalid(c, "config.kernel.fixed[0].lengthscales", "(3) entries, got 4");
+  c = FixedKernel();
+  c.mutable_kernel()->mutable_fixed(0)->set_lengthscales(2, -1.0);
+  ExpectInvalid(c, "config.kernel.fixed[0].lengthscales[2]", "> 0");
+  c = FixedKernel();
+  c.mutable_kernel()->mutable_fixed(0)->set_noise_variance(std::nan(""));
+  ExpectInvalid(c, "config.kernel.fixed[0].noise_variance");
+  c = FixedKernel();
+  c.mutable_noise()->set_fit(true);
+  ExpectInvalid(c, "config.noise.fit", "kernel.fit is true");
+  c = FixedKernel();
+  c.mutable_kernel()->set_fit(true);
+  ExpectInvalid(c, "config.kernel.fixed", "must be empty when kernel.fit is true");
+}
+
+TEST(ConfigValidationTest, FitBoundsAndCounts) {
+  v1::SessionConfig c = Valid();
+  c.mutable_kernel()->mutable_lengthscale_bounds()->set_lower(0);
+  c.mutable_kernel()->mutable_lengthscale_bounds()->set_upper(10);
+  ExpectInvalid(c, "config.kernel.lengthscale_bounds.lower", "> 0");
+  c = Valid();
+  c.mutable_kernel()->mutable_signal_variance_bounds()->set_lower(5);
+  c.mutable_kernel()->mutable_signal_variance_bounds()->set_upper(1);
+  ExpectInvalid(c, "config.kernel.signal_variance_bounds",
+                "lower (5) must be < upper (1)");
+  c = Valid();
+  c.mutable_kernel()->set_restarts(-1);
+  ExpectInvalid(c, "config.kernel.restarts", "[0, 100]");
+  c = Valid();
+  c.mutable_kernel()->set_max_iterations(-3);
+  ExpectInvalid(c, "config.kernel.max_iterations");
+}
+
+TEST(ConfigValidationTest, EnumsAndHorizon) {
+  v1::SessionConfig c = Valid();
+  c.set_target(static_cast<v1::Target>(9));
+  ExpectInvalid(c, "config.target", "unknown value 9");
+  c = Valid();
+  c.set_strategy(static_cast<v1::Strategy>(42));
+  ExpectInvalid(c, "config.strategy", "unknown value 42");
+  c = Valid();
+  c.set_horizon(201);
+  ExpectInvalid(c, "config.horizon", "[1, 200]");
+  c = Valid();
+  c.set_horizon(-1);
+  ExpectInvalid(c, "config.horizon");
+}
+
+TEST(ConfigValidationTest, RefitAndPlanner) {
+  v1::SessionConfig c = Valid();
+  c.mutable_refit()->set_every_samples(-1);
+  ExpectInvalid(c, "config.refit.every_samples");
+  c = Valid();
+  c.mutable_refit()->set_min_samples(1);
+  ExpectInvalid(c, "config.refit.min_samples", "[2, 1000000]");
+  c = Valid();
+  c.mutable_planner()->set_max_iterations(-1);
+  ExpectInvalid(c, "config.planner.max_iterations");
+  c = Valid();
+  c.mutable_planner()->set_restarts(101);
+  ExpectInvalid(c, "config.planner.restarts");
+  c = Valid();
+  c.mutable_planner()->set_tolerance(1.5);
+  ExpectInvalid(c, "config.planner.tolerance", "(0, 1)");
+  c = Valid();
+  c.mutable_planner()->set_time_budget_s(-2);
+  ExpectInvalid(c, "config.planner.time_budget_s");
+  c = Valid();
+  c.mutable_planner()->set_time_budget_s(std::nan(""));
+  ExpectInvalid(c, "config.planner.time_budget_s");
+}
+
+TEST(ConfigValidationTest, PathPrefixForConfigFiles) {
+  v1::SessionConfig c = Valid();
+  c.set_state_dim(0);
+  absl::Status status = ValidateSessionConfig(&c, "session");
+  EXPECT_THAT(std::string(status.message()), ::testing::StartsWith("session.state_dim:"));
+}
+
+TEST(ConfigTextTest, ParseErrorsNameLineAndColumn) {
+  absl::StatusOr<v1::SessionConfig> config =
+      ParseSessionConfigText("state_dim: 2\nbogus: 1\n");
+  EXPECT_EQ(config.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(config.status().message()), HasSubstr("2:"));
+  EXPECT_THAT(std::string(config.status().message()), HasSubstr("bogus"));
+  EXPECT_EQ(LoadSessionConfigFile("/nonexistent/x.textproto").status().code(),
+            absl::StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace excite::service

@@ -1,0 +1,504 @@
+// The service over a real loopback server started in-process on port 0 with a
+// temporary data directory, driven through the C++ client library (and a raw
+// stub where a test needs messages the client would not send).
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "absl/strings/ascii.h"
+#include "client/excite_client.h"
+#include "gmock/gmock.h"
+#include "grpcpp/create_channel.h"
+#include "grpcpp/security/credentials.h"
+#include "gtest/gtest.h"
+#include "server/service/config_text.h"
+#include "server/service/excite_server.h"
+#include "tests/service/pendulum_data.h"
+#include "tests/service/temp_dir.h"
+
+namespace excite::service {
+namespace {
+
+using ::excite::testing::PendulumStep;
+using ::excite::testing::PendulumTransitions;
+using ::testing::HasSubstr;
+
+constexpr char kPendulumConfig[] = R"pb(
+  state_dim: 2
+  input_dim: 1
+  input_bounds { lower: -3 upper: 3 }
+  state_bounds { lower: -3.2 upper: 3.2 }
+  state_bounds { lower: -8 upper: 8 }
+  noise { variance: 1e-6 fit: true }
+  kernel { fit: true restarts: 1 max_iterations: 40 }
+  strategy: STRATEGY_REC
+  horizon: 5
+  planner { max_iterations: 30 time_budget_s: 5 }
+  seed: 7
+)pb";
+
+v1::SessionConfig PendulumConfig(v1::Strategy strategy = v1::STRATEGY_REC) {
+  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(kPendulumConfig);
+  EXPECT_TRUE(config.ok()) << config.status();
+  config->set_strategy(strategy);
+  return *config;
+}
+
+class ServiceTest : public ::testing::Test {
+ protected:
+  void SetUp() override { StartServer(); }
+  void TearDown() override { StopServer(); }
+
+  void StartServer() {
+    ServerOptions options;
+    options.listen = "127.0.0.1:0";
+    options.data_dir = tmp_.path() + "/data";
+    options.limits.max_samples_per_session = 500;
+    absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
+    ASSERT_TRUE(server.ok()) << server.status();
+    server_ = *std::move(server);
+    ASSERT_GT(server_->port(), 0);
+    client_ = client::ExciteClient::Connect(server_->address());
+    ASSERT_TRUE(client_->WaitForReady(std::chrono::seconds(5)).ok());
+    stub_ = v1::ExplorationService::NewStub(
+        grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials()));
+  }
+
+  void StopServer() {
+    stub_.reset();
+    client_.reset();
+    server_.reset();  // shuts down and closes the store
+  }
+
+  v1::Session Create(const std::string& id,
+                     const v1::SessionConfig& config = PendulumConfig()) {
+    absl::StatusOr<v1::Session> session = client_->CreateSession(config, id);
+    EXPECT_TRUE(session.ok()) << session.status();
+    return session.ok() ? *session : v1::Session();
+  }
+
+  v1::AddDataResponse Add(const std::string& name,
+                          const std::vector<std::vector<v1::Transition>>& batches) {
+    absl::StatusOr<v1::AddDataResponse> response = client_->AddData(name, batches);
+    EXPECT_TRUE(response.ok()) << response.status();
+    return response.ok() ? *response : v1::AddDataResponse();
+  }
+
+  // A raw AddData stream of `messages`.
+  grpc::Status RawAddData(const std::vector<v1::AddDataRequest>& messages,
+                          v1::AddDataResponse* response) {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    auto writer = stub_->AddData(&context, response);
+    for (const v1::AddDataRequest& m : messages) {
+      if (!writer->Write(m)) break;
+    }
+    writer->WritesDone();
+    return writer->Finish();
+  }
+
+  excite::testing::TempDir tmp_;
+  std::unique_ptr<ExciteServer> server_;
+  std::unique_ptr<client::ExciteClient> client_;
+  std::unique_ptr<v1::ExplorationService::Stub> stub_;
+};
+
+void ExpectStatus(const absl::Status& status, absl::StatusCode code,
+                  const std::string& message_part) {
+  EXPECT_EQ(status.code(), code) << status;
+  EXPECT_THAT(std::string(status.message()), HasSubstr(message_part)) << status;
+}
+
+TEST_F(ServiceTest, CreateGetListDelete) {
+  const v1::Session created = Create("pend-a");
+  EXPECT_EQ(created.name(), "sessions/pend-a");
+  EXPECT_EQ(created.sample_count(), 0);
+  EXPECT_EQ(created.last_sequence(), -1);
+  EXPECT_EQ(created.model_version(), 0);
+  EXPECT_EQ(created.outputs_size(), 0);
+  EXPECT_EQ(created.config().planner().tolerance(), 1e-4);  // defaults filled
+
+  absl::StatusOr<v1::Session> generated = client_->CreateSession(PendulumConfig(), "");
+  ASSERT_TRUE(generated.ok()) << generated.status();
+  EXPECT_THAT(generated->name(), ::testing::MatchesRegex("sessions/[a-z0-9-]{1,63}"));
+  for (const char* id : {"pend-d", "pend-c", "pend-b"}) Create(id);
+
+  absl::StatusOr<v1::Session> got = client_->GetSession("sessions/pend-a");
+  ASSERT_TRUE(got.ok()) << got.status();
+  EXPECT_EQ(got->config().SerializeAsString(), created.config().SerializeAsString());
+
+  // Paging in id order, 2 at a time: 5 sessions -> 3 pages.
+  std::vector<std::string> names;
+  std::string token;
+  int pages = 0;
+  do {
+    absl::StatusOr<v1::ListSessionsResponse> page = client_->ListSessions(2, token);
+    ASSERT_TRUE(page.ok()) << page.status();
+    EXPECT_LE(page->sessions_size(), 2);
+    for (const v1::Session& s : page->sessions()) names.push_back(s.name());
+    token = page->next_page_token();
+    ++pages;
+  } while (!token.empty() && pages < 10);
+  EXPECT_EQ(pages, 3);
+  ASSERT_EQ(names.size(), 5u);
+  EXPECT_TRUE(std::is_sorted(names.begin(), names.end()));
+  EXPECT_EQ(std::set<std::string>(names.begin(), names.end()).size(), 5u);
+
+  absl::StatusOr<v1::ListSessionsResponse> all = client_->ListSessions(0, "");
+  ASSERT_TRUE(all.ok());
+  EXPECT_EQ(all->sessions_size(), 5);
+  EXPECT_TRUE(all->next_page_token().empty());
+
+  ExpectStatus(client_->ListSessions(2, "not-a-token!").status(),
+               absl::StatusCode::kInvalidArgument, "page_token");
+  ExpectStatus(client_->ListSessions(-1, "").status(), absl::StatusCode::kInvalidArgument,
+               "page_size");
+
+  ASSERT_TRUE(client_->DeleteSession("sessions/pend-a").ok());
+  ExpectStatus(client_->GetSession("sessions/pend-a").status(),
+               absl::StatusCode::kNotFound, "session sessions/pend-a not found");
+  ExpectStatus(client_->DeleteSession("sessions/pend-a"), absl::StatusCode::kNotFound,
+               "not found");
+  EXPECT_EQ(client_->ListSessions(0, "")->sessions_size(), 4);
+  // The id is free again and the new session starts empty.
+  EXPECT_EQ(Create("pend-a").sample_count(), 0);
+}
+
+TEST_F(ServiceTest, StreamDataThenPredict) {
+  const std::string name = Create("pend").name();
+  ExpectStatus(client_
+                   ->Predict([&] {
+                     v1::PredictRequest r;
+                     r.set_session(name);
+                     for (double v : {0.0, 0.0, 0.0}) r.add_inputs(v);
+                     return r;
+                   }())
+                   .status(),
+               absl::StatusCode::kFailedPrecondition,
+               "session sessions/pend has 0 samples; at least 2 are needed");
+
+  // 80 transitions in 4 messages of one stream.
+  const std::vector<v1::Transition> data = PendulumTransitions(80, 0, 1);
+  std::vector<std::vector<v1::Transition>> batches(4);
+  for (size_t i = 0; i < data.size(); ++i) batches[i / 20].push_back(data[i]);
+  const v1::AddDataResponse added = Add(name, batches);
+  EXPECT_EQ(added.stored(), 80);
+  EXPECT_EQ(added.duplicates(), 0);
+  EXPECT_EQ(added.sample_count(), 80);
+  EXPECT_EQ(added.model_version(), 4);  // one per message that stored something
+  EXPECT_EQ(client_->GetSession(name)->outputs_size(), 0);  // not fitted yet
+
+  // Predict at random test points against the true pendulum.
+  const std::vector<v1::Transition> test = PendulumTransitions(30, 0, 99);
+  v1::PredictRequest request;
+  request.set_session(name);
+  for (const v1::Transition& t : test) {
+    request.add_inputs(t.state(0));
+    request.add_inputs(t.state(1));
+    request.add_inputs(t.input(0));
+  }
+  absl::StatusOr<v1::PredictResponse> predicted = client_->Predict(request);
+  ASSERT_TRUE(predicted.ok()) << predicted.status();
+  ASSERT_EQ(predicted->mean_size(), 60);
+  ASSERT_EQ(predicted->variance_size(), 60);
+  EXPECT_EQ(predicted->model_version(), 5);  // the lazy refit counts
+  double se = 0.0, se_still = 0.0;
+  for (int i = 0; i < 30; ++i) {
+    for (int j = 0; j < 2; ++j) {
+      const double truth = test[i].next_state(j);
+      se += std::pow(predicted->mean(2 * i + j) - truth, 2);
+      se_still += std::pow(test[i].state(j) - truth, 2);
+      EXPECT_GE(predicted->variance(2 * i + j), 0.0);
+    }
+  }
+  const double rmse = std::sqrt(se / 60), rmse_still = std::sqrt(se_still / 60);
+  std::cout << "pendulum, 80 samples: GP RMSE " << rmse << " vs 'state stays' "
+            << rmse_still << "\n";
+  EXPECT_LT(rmse, 0.5 * rmse_still);
+
+  request.set_include_noise(true);
+  absl::StatusOr<v1::PredictResponse> noisy = client_->Predict(request);
+  ASSERT_TRUE(noisy.ok());
+  for (int k = 0; k < 60; ++k) EXPECT_GT(noisy->variance(k), predicted->variance(k));
+  EXPECT_EQ(noisy->mean(0), predicted->mean(0));
+
+  // Once fitted, GetSession reports the model per output dimension.
+  absl::StatusOr<v1::Session> session = client_->GetSession(name);
+  ASSERT_TRUE(session.ok());
+  ASSERT_EQ(session->outputs_size(), 2);
+  for (const v1::OutputModel& output : session->outputs()) {
+    EXPECT_EQ(output.hyperparameters().lengthscales_size(), 3);
+    EXPECT_GT(output.hyperparameters().signal_variance(), 0.0);
+    EXPECT_GT(output.hyperparameters().noise_variance(), 0.0);
+    EXPECT_TRUE(std::isfinite(output.log_marginal_likelihood()));
+  }
+  EXPECT_EQ(session->sample_count(), 80);
+  EXPECT_EQ(session->last_sequence(), 79);
+  EXPECT_EQ(session->model_version(), 5);
+}
+
+// Plans from the origin for each strategy: shape, bounds, apply_count.
+TEST_F(ServiceTest, PlanInputsPerStrategy) {
+  struct Case {
+    v1::Strategy strategy;
+    int horizon;
+    int apply_count;
+  };
+  for (const Case& c : {Case{v1::STRATEGY_REC, 5, 1}, Case{v1::STRATEGY_PA, 5, 5},
+                        Case{v1::STRATEGY_GREEDY, 1, 1}}) {
+    SCOPED_TRACE(v1::Strategy_Name(c.strategy));
+    const std::string id = absl::AsciiStrToLower(v1::Strategy_Name(c.strategy));
+    std::string session_id = id;
+    std::replace(session_id.begin(), session_id.end(), '_', '-');
+    const std::string name = Create(session_id, PendulumConfig(c.strategy)).name();
+    Add(name, {PendulumTransitions(30, 0, 3)});
+    absl::StatusOr<v1::PlanInputsResponse> plan = client_->PlanInputs(name, {0.1, -0.2});
+    ASSERT_TRUE(plan.ok()) << plan.status();
+    EXPECT_EQ(plan->horizon(), c.horizon);
+    EXPECT_EQ(plan->apply_count(), c.apply_count);
+    ASSERT_EQ(plan->inputs_size(), c.horizon);
+    ASSERT_EQ(plan->predicted_states_size(), 2 * c.horizon);
+    ASSERT_EQ(plan->predicted_variances_size(), 2 * c.horizon);
+    for (double u : plan->inputs()) {
+      EXPECT_GE(u, -3.0 - 1e-9);
+      EXPECT_LE(u, 3.0 + 1e-9);
+    }
+    EXPECT_NEAR(plan->predicted_states(0), 0.1, 1e-9);
+    EXPECT_NEAR(plan->predicted_states(1), -0.2, 1e-9);
+    for (double v : plan->predicted_variances()) EXPECT_GE(v, 0.0);
+    EXPECT_NE(plan->solver_status(), v1::SOLVER_STATUS_UNSPECIFIED);
+    EXPECT_TRUE(std::isfinite(plan->objective()));
+    EXPECT_GE(plan->iterations(), 0);
+    EXPECT_GT(plan->wall_time_ms(), 0.0);
+    EXPECT_EQ(plan->model_version(), 2);  // one AddData + one refit
+    std::cout << v1::Strategy_Name(c.strategy) << ": "
+              << v1::SolverStatus_Name(plan->solver_status()) << " in "
+              << plan->wall_time_ms() << " ms, " << plan->iterations() << " iterations\n";
+  }
+}
+
+TEST_F(ServiceTest, TinyTimeBudgetGivesTimeLimitOrDeadlineExceeded) {
+  v1::SessionConfig config = PendulumConfig();
+  config.set_horizon(30);
+  config.mutable_planner()->set_time_budget_s(1e-4);
+  const std::string name = Create("tiny-budget", config).name();
+  Add(name, {PendulumTransitions(30, 0, 4)});
+  absl::StatusOr<v1::PlanInputsResponse> plan = client_->PlanInputs(name, {0.0, 0.0});
+  if (plan.ok()) {
+    EXPECT_EQ(plan->solver_status(), v1::SOLVER_STATUS_TIME_LIMIT);
+  } else {
+    EXPECT_EQ(plan.status().code(), absl::StatusCode::kDeadlineExceeded) << plan.status();
+  }
+}
+
+TEST_F(ServiceTest, RestartKeepsExactlyTheAcknowledgedSamples) {
+  const std::string name = Create("durable").name();
+  const std::vector<v1::Transition> data = PendulumTransitions(30, 0, 5);
+  const std::vector<v1::Transition> first(data.begin(), data.begin() + 20);
+  const std::vector<v1::Transition> second(data.begin() + 20, data.end());
+  Add(name, {first});
+  // A retry of the first batch overlapping new data: stored once.
+  std::vector<v1::Transition> retry(data.begin() + 10, data.end());
+  v1::AddDataResponse r = Add(name, {retry});
+  EXPECT_EQ(r.stored(), 10);
+  EXPECT_EQ(r.duplicates(), 10);
+  EXPECT_EQ(r.sample_count(), 30);
+
+  // A stream whose second message is invalid: the first one is acknowledged
+  // (durable), the second not.
+  v1::AddDataRequest ok_message;
+  ok_message.set_session(name);
+  for (const v1::Transition& t : PendulumTransitions(5, 100, 6)) {
+    *ok_message.add_transitions() = t;
+  }
+  v1::AddDataRequest bad_message = ok_message;
+  for (v1::Transition& t : *bad_message.mutable_transitions())
+    t.set_sequence(t.sequence() + 5);
+  bad_message.mutable_transitions(3)->set_state(1, std::nan(""));
+  v1::AddDataResponse ignored;
+  grpc::Status status = RawAddData({ok_message, bad_message}, &ignored);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(status.error_message(), HasSubstr("transitions[3].state[1]"));
+
+  // Fit once so that hyperparameters are saved.
+  v1::PredictRequest predict;
+  predict.set_session(name);
+  for (double v : {0.5, 0.5, 0.5}) predict.add_inputs(v);
+  absl::StatusOr<v1::PredictResponse> before = client_->Predict(predict);
+  ASSERT_TRUE(before.ok()) << before.status();
+  const v1::Session before_restart = *client_->GetSession(name);
+  EXPECT_EQ(before_restart.sample_count(), 35);
+  EXPECT_EQ(before_restart.last_sequence(), 104);
+
+  StopServer();
+  StartServer();
+
+  absl::StatusOr<v1::Session> after = client_->GetSession(name);
+  ASSERT_TRUE(after.ok()) << after.status();
+  EXPECT_EQ(after->sample_count(), 35);
+  EXPECT_EQ(after->last_sequence(), 104);
+  EXPECT_EQ(after->config().SerializeAsString(),
+            before_restart.config().SerializeAsString());
+  EXPECT_GE(after->model_version(), before_restart.model_version());
+  // Retrying everything after the restart stores nothing twice.
+  v1::AddDataResponse again = Add(name, {first, second});
+  EXPECT_EQ(again.stored(), 0);
+  EXPECT_EQ(again.duplicates(), 30);
+  EXPECT_EQ(again.sample_count(), 35);
+  // The model is rebuilt from the same data: the same prediction (up to the fit).
+  absl::StatusOr<v1::PredictResponse> restored = client_->Predict(predict);
+  ASSERT_TRUE(restored.ok()) << restored.status();
+  EXPECT_NEAR(restored->mean(0), before->mean(0), 1e-3);
+  EXPECT_NEAR(restored->mean(1), before->mean(1), 1e-3);
+}
+
+TEST_F(ServiceTest, ErrorCodes) {
+  const std::string name = Create("errors").name();
+  // NOT_FOUND / malformed names.
+  ExpectStatus(client_->GetSession("sessions/nope").status(), absl::StatusCode::kNotFound,
+               "session sessions/nope not found");
+  ExpectStatus(client_->GetSession("nope").status(), absl::StatusCode::kInvalidArgument,
+               "name:");
+  ExpectStatus(client_->GetSession("sessions/UPPER").status(),
+               absl::StatusCode::kInvalidArgument, "name:");
+  ExpectStatus(client_->PlanInputs("sessions/nope", {0, 0}).status(),
+               absl::StatusCode::kNotFound, "not found");
+  ExpectStatus(client_->AddData("sessions/nope", {PendulumTransitions(1, 0, 1)}).status(),
+               absl::StatusCode::kNotFound, "not found");
+  // ALREADY_EXISTS and bad configs / ids.
+  ExpectStatus(client_->CreateSession(PendulumConfig(), "errors").status(),
+               absl::StatusCode::kAlreadyExists, "already exists");
+  v1::SessionConfig bad = PendulumConfig();
+  bad.mutable_input_bounds(0)->set_lower(2);
+  bad.mutable_input_bounds(0)->set_upper(1);
+  ExpectStatus(client_->CreateSession(bad, "bad").status(),
+               absl::StatusCode::kInvalidArgument,
+               "config.input_bounds[0]: lower (2) must be < upper (1)");
+  ExpectStatus(client_->CreateSession(PendulumConfig(), "Bad_Id").status(),
+               absl::StatusCode::kInvalidArgument, "session_id");
+  ExpectStatus(client_->CreateSession(PendulumConfig(), std::string(64, 'a')).status(),
+               absl::StatusCode::kInvalidArgument, "session_id");
+  // FAILED_PRECONDITION before data (also with 1 sample < min_samples = 2).
+  ExpectStatus(client_->PlanInputs(name, {0, 0}).status(),
+               absl::StatusCode::kFailedPrecondition, "at least 2 are needed");
+  Add(name, {PendulumTransitions(1, 0, 1)});
+  ExpectStatus(client_->PlanInputs(name, {0, 0}).status(),
+               absl::StatusCode::kFailedPrecondition, "has 1 samples");
+
+  // AddData validation: shapes, finiteness, sequence numbers.
+  auto add_one = [&](const std::function<void(v1::Transition*)>& edit) {
+    std::vector<v1::Transition> batch = PendulumTransitions(3, 10, 2);
+    edit(&batch[1]);
+    return client_->AddData(name, {batch}).status();
+  };
+  ExpectStatus(add_one([](v1::Transition* t) { t->add_state(1.0); }),
+               absl::StatusCode::kInvalidArgument,
+               "transitions[1].state: must have state_dim (2) numbers, got 3");
+  ExpectStatus(add_one([](v1::Transition* t) { t->clear_input(); }),
+               absl::StatusCode::kInvalidArgument, "transitions[1].input");
+  ExpectStatus(add_one([](v1::Transition* t) { t->mutable_next_state()->RemoveLast(); }),
+               absl::StatusCode::kInvalidArgument, "transitions[1].next_state");
+  ExpectStatus(add_one([](v1::Transition* t) {
+                 t->set_input(0, std::numeric_limits<double>::infinity());
+               }),
+               absl::StatusCode::kInvalidArgument,
+               "transitions[1].input[0]: must be finite");
+  ExpectStatus(add_one([](v1::Transition* t) { t->set_sequence(-1); }),
+               absl::StatusCode::kInvalidArgument,
+               "transitions[1].sequence: must be >= 0");
+  ExpectStatus(add_one([](v1::Transition* t) { t->set_sequence(10); }),
+               absl::StatusCode::kInvalidArgument, "appears twice in one message");
+  EXPECT_EQ(client_->GetSession(name)->sample_count(), 1);  // nothing of those stored
+
+  // Streams: the first message must name the session; later ones must agree.
+  Create("other");
+  v1::AddDataRequest unnamed;
+  *unnamed.add_transitions() = PendulumTransitions(1, 50, 3)[0];
+  v1::AddDataResponse response;
+  grpc::Status status = RawAddData({unnamed}, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(status.error_message(), HasSubstr("session: required in the first"));
+  v1::AddDataRequest named = unnamed;
+  named.set_session(name);
+  v1::AddDataRequest later_unnamed;  // allowed: later messages may omit the name
+  *later_unnamed.add_transitions() = PendulumTransitions(1, 51, 3)[0];
+  v1::AddDataRequest other = later_unnamed;
+  other.set_session("sessions/other");
+  other.mutable_transitions(0)->set_sequence(52);
+  status = RawAddData({named, later_unnamed, other}, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(status.error_message(), HasSubstr("names sessions/other"));
+  EXPECT_EQ(client_->GetSession(name)->sample_count(), 3);  // first two were stored
+  EXPECT_EQ(client_->GetSession("sessions/other")->sample_count(), 0);
+  status = RawAddData({}, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+
+  // Predict validation.
+  v1::PredictRequest predict;
+  predict.set_session(name);
+  ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kInvalidArgument,
+               "inputs: must hold at least one point");
+  for (double v : {0.0, 0.0, 0.0, 1.0}) predict.add_inputs(v);
+  ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kInvalidArgument,
+               "not a multiple of state_dim + input_dim (3)");
+  predict.add_inputs(0.0);
+  predict.add_inputs(std::nan(""));
+  ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kInvalidArgument,
+               "inputs[5] (point 1): must be finite");
+  predict.set_session("sessions/");
+  ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kInvalidArgument,
+               "session:");
+
+  // PlanInputs validation.
+  ExpectStatus(client_->PlanInputs(name, {0.0}).status(),
+               absl::StatusCode::kInvalidArgument,
+               "state: must have state_dim (2) numbers, got 1");
+  ExpectStatus(client_->PlanInputs(name, {0.0, std::nan("")}).status(),
+               absl::StatusCode::kInvalidArgument, "state[1]: must be finite");
+  ExpectStatus(client_->PlanInputs("", {0.0, 0.0}).status(),
+               absl::StatusCode::kInvalidArgument, "session: required");
+
+  // Caps: RESOURCE_EXHAUSTED (this test server allows 500 samples per session).
+  ExpectStatus(client_->AddData(name, {PendulumTransitions(600, 1000, 4)}).status(),
+               absl::StatusCode::kResourceExhausted, "cap of 500");
+}
+
+TEST_F(ServiceTest, DeletedSessionRejectsLaterCallsAndItsDataIsGone) {
+  const std::string name = Create("gone").name();
+  Add(name, {PendulumTransitions(10, 0, 8)});
+  ASSERT_TRUE(client_->DeleteSession(name).ok());
+  Create("gone");
+  StopServer();
+  StartServer();
+  absl::StatusOr<v1::Session> session = client_->GetSession(name);
+  ASSERT_TRUE(session.ok());
+  EXPECT_EQ(session->sample_count(), 0);  // the new session, not the old data
+}
+
+TEST_F(ServiceTest, AddDataLatency) {
+  const std::string name = Create("latency").name();
+  const std::vector<v1::Transition> data = PendulumTransitions(50, 0, 9);
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 0; i < 50; ++i) {
+    ASSERT_TRUE(client_->AddData(name, {{data[i]}}).ok());
+  }
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+          .count() /
+      50;
+  std::cout << "AddData of one transition (durable, one stream per call): " << ms
+            << " ms mean over 50 calls\n";
+  RecordProperty("add_data_ms", std::to_string(ms));
+  EXPECT_EQ(client_->GetSession(name)->sample_count(), 50);
+}
+
+}  // namespace
+}  // namespace excite::service
