@@ -67,6 +67,8 @@ struct DynamicsModel::State {
   Eigen::MatrixXd targets;
   int samples_since_fit = 0;
   int refits = 0;
+  // Sample count at the last Refit() that ran the data-driven default start.
+  int default_start_n = 0;
   bool fitted = false;
   // Input normalisation (resolved at the first Refit()).
   bool normalisation_resolved = false;
@@ -225,6 +227,9 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit() {
   const Eigen::MatrixXd zn = s.Normalise(s.z);
 
   const int outputs = s.state_dim;
+  const bool have_warm = !s.data_hyperparameters.empty();
+  const bool default_start =
+      !have_warm || n >= s.options.fit.default_start_growth * s.default_start_n;
   std::vector<GpModel> gps(outputs);
   std::vector<absl::StatusOr<FitSummary>> results(outputs, FitSummary{});
   auto fit_output = [&](int j) {
@@ -257,6 +262,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit() {
       return;
     }
     FitOptions fit = s.options.fit;
+    fit.warm_default_start = fit.warm_default_start && default_start;
     fit.seed = SplitMix64(s.options.fit.seed ^
                           SplitMix64(static_cast<uint64_t>(s.refits) * 1024u + j));
     results[j] = FitHyperparameters(fit, noise, s.options.fit_noise, warm, &gps[j]);
@@ -296,6 +302,10 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit() {
   }
   s.fitted = true;
   s.samples_since_fit = 0;
+  if (s.options.fit_kernel &&
+      (!have_warm || (default_start && s.options.fit.warm_default_start))) {
+    s.default_start_n = n;
+  }
   ++s.refits;
   summary.wall_time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)

@@ -32,6 +32,32 @@ absl::Status CheckHyperparameters(const Hyperparameters& h, Eigen::Index dim) {
   return absl::OkStatus();
 }
 
+// K^-1 from the lower Cholesky factor L of K, exploiting the triangular structure
+// (what LAPACK's potri does): L^-1 column block by column block (n^3/3 flops),
+// then the lower half of L^-T L^-1 by rank updates with row blocks of L^-1
+// (n^3/3), mirrored. Twice as fast as a dense solve against the identity.
+Eigen::MatrixXd CholeskyInverse(const Eigen::Ref<const Eigen::MatrixXd>& l) {
+  constexpr Eigen::Index kBlock = 64;
+  const Eigen::Index n = l.rows();
+  Eigen::MatrixXd l_inv = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index j0 = 0; j0 < n; j0 += kBlock) {
+    const Eigen::Index jb = std::min(kBlock, n - j0);
+    auto x = l_inv.block(j0, j0, n - j0, jb);
+    x.topRows(jb).setIdentity();
+    l.bottomRightCorner(n - j0, n - j0).triangularView<Eigen::Lower>().solveInPlace(x);
+  }
+  Eigen::MatrixXd k_inv = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index r0 = 0; r0 < n; r0 += kBlock) {
+    const Eigen::Index r1 = std::min(r0 + kBlock, n);
+    k_inv.topLeftCorner(r1, r1).selfadjointView<Eigen::Lower>().rankUpdate(
+        l_inv.block(r0, 0, r1 - r0, r1).transpose());
+  }
+  for (Eigen::Index j = 1; j < n; ++j) {
+    k_inv.col(j).head(j) = k_inv.row(j).head(j).transpose();
+  }
+  return k_inv;
+}
+
 }  // namespace
 
 absl::Status GpModel::Reset(Eigen::MatrixXd x, Eigen::VectorXd y,
@@ -164,10 +190,7 @@ Eigen::VectorXd GpModel::LogMarginalLikelihoodGradient() const {
   const Eigen::Index d = x_.cols();
   Eigen::VectorXd grad(d + 2);
   if (n == 0) return grad.setZero();
-  // K^-1 = L^-T L^-1; L^-1 is exactly lower triangular, so a triangular product.
-  const Eigen::MatrixXd l_inv = LowerFactor().solve(Eigen::MatrixXd::Identity(n, n));
-  Eigen::MatrixXd w(n, n);
-  w.noalias() = l_inv.transpose().triangularView<Eigen::Upper>() * l_inv;
+  Eigen::MatrixXd w = CholeskyInverse(l_.topLeftCorner(n, n));
   w = alpha_ * alpha_.transpose() - w;  // W = alpha alpha^T - K^-1
   const Eigen::MatrixXd a =
       w.cwiseProduct(Covariance(x_scaled_, hyperparameters_.signal_variance));

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <limits>
 #include <optional>
@@ -37,6 +39,7 @@ class Objective {
   // -LML / n and its gradient; remembers the best point seen in this start.
   double operator()(const Eigen::VectorXd& theta, Eigen::VectorXd& grad) {
     ++evaluations_;
+    last_theta_ = theta;
     const double scale = 1.0 / std::max(1, model_->size());
     grad.setZero(theta.size());
     if (!theta.allFinite() || !model_->SetHyperparameters(Unpack(theta)).ok()) {
@@ -63,6 +66,8 @@ class Objective {
   double best_f() const { return best_f_; }
   const Eigen::VectorXd& best_theta() const { return best_theta_; }
   int evaluations() const { return evaluations_; }
+  // The point at which the model is currently factorised.
+  const Eigen::VectorXd& last_theta() const { return last_theta_; }
 
  private:
   GpModel* model_;
@@ -72,6 +77,7 @@ class Objective {
   int evaluations_ = 0;
   double best_f_ = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_theta_;
+  Eigen::VectorXd last_theta_;
 };
 
 absl::Status CheckOptions(const FitOptions& o) {
@@ -87,8 +93,10 @@ absl::Status CheckOptions(const FitOptions& o) {
     return absl::InvalidArgumentError(
         "FitOptions: restarts >= 0, warm_restarts >= 0, max_iterations >= 1");
   }
-  if (!(o.gradient_tolerance >= 0.0) || !(o.function_tolerance >= 0.0)) {
-    return absl::InvalidArgumentError("FitOptions: tolerances must be >= 0");
+  if (!(o.gradient_tolerance >= 0.0) || !(o.function_tolerance >= 0.0) ||
+      !std::isfinite(o.default_start_growth)) {
+    return absl::InvalidArgumentError(
+        "FitOptions: tolerances must be >= 0 and default_start_growth finite");
   }
   return absl::OkStatus();
 }
@@ -139,7 +147,7 @@ absl::StatusOr<FitSummary> FitHyperparameters(
   // Starts: warm (if any), data-driven default, random log-uniform.
   std::vector<Eigen::VectorXd> starts;
   if (warm_start.has_value()) starts.push_back(pack(*warm_start));
-  {
+  if (!warm_start.has_value() || options.warm_default_start) {
     // Outputs are standardised and inputs scaled to about [-1, 1]: unit signal
     // variance and lengthscales, and a noise well below the signal.
     Hyperparameters h;
@@ -185,6 +193,9 @@ absl::StatusOr<FitSummary> FitHyperparameters(
       ++summary.failed_starts;
       summary.iterations += objective.evaluations() - evaluations_before;
     }
+    std::fprintf(stderr, "start %d evals %d f %.8f fail %d x %s\n", summary.starts,
+                 objective.evaluations() - evaluations_before, objective.best_f(),
+                 summary.failed_starts, "");
     if (objective.best_f() < best_f) {
       best_f = objective.best_f();
       best_theta = objective.best_theta();
@@ -193,7 +204,10 @@ absl::StatusOr<FitSummary> FitHyperparameters(
   summary.evaluations = objective.evaluations();
   absl::Status status;
   if (best_theta.size() == p) {
-    status = model->SetHyperparameters(objective.Unpack(best_theta));
+    // Refactorise at the best point unless the model is already there.
+    if (objective.last_theta() != best_theta) {
+      status = model->SetHyperparameters(objective.Unpack(best_theta));
+    }
   } else {
     // Every evaluation failed: fall back to the first start.
     status = model->SetHyperparameters(objective.Unpack(starts.front()));
