@@ -193,9 +193,6 @@ absl::StatusOr<FitSummary> FitHyperparameters(
       ++summary.failed_starts;
       summary.iterations += objective.evaluations() - evaluations_before;
     }
-    std::fprintf(stderr, "start %d evals %d f %.8f fail %d x %s\n", summary.starts,
-                 objective.evaluations() - evaluations_before, objective.best_f(),
-                 summary.failed_starts, "");
     if (objective.best_f() < best_f) {
       best_f = objective.best_f();
       best_theta = objective.best_theta();
