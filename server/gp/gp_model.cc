@@ -94,7 +94,8 @@ absl::Status GpModel::Factorise() {
   }
   const double sf2 = hyperparameters_.signal_variance;
   const double sn2 = hyperparameters_.noise_variance;
-  const Eigen::MatrixXd k = Covariance(x_scaled_, sf2);
+  kf_ = Covariance(x_scaled_, sf2);
+  const Eigen::MatrixXd& k = kf_;
   double jitter = 0.0;
   for (int attempt = 0; attempt < 10; ++attempt) {
     auto block = l_.topLeftCorner(n, n);
@@ -145,6 +146,7 @@ absl::Status GpModel::AddSample(const Eigen::VectorXd& x, double y) {
   x_scaled_.row(n) = s;
   y_.conservativeResize(n + 1);
   y_(n) = y;
+  kf_.resize(0, 0);  // stale after an append; recomputed on demand
   if (n == 0) {
     n_ = 1;
     return Factorise();
@@ -192,8 +194,11 @@ Eigen::VectorXd GpModel::LogMarginalLikelihoodGradient() const {
   if (n == 0) return grad.setZero();
   Eigen::MatrixXd w = CholeskyInverse(l_.topLeftCorner(n, n));
   w = alpha_ * alpha_.transpose() - w;  // W = alpha alpha^T - K^-1
+  // K_f as cached by the last factorisation, or recomputed after row appends.
   const Eigen::MatrixXd a =
-      w.cwiseProduct(Covariance(x_scaled_, hyperparameters_.signal_variance));
+      kf_.rows() == n
+          ? w.cwiseProduct(kf_)
+          : w.cwiseProduct(Covariance(x_scaled_, hyperparameters_.signal_variance));
   grad(0) = 0.5 * a.sum();
   grad.segment(1, d) = LogLengthscaleGradient(a, x_scaled_);
   grad(d + 1) = 0.5 * hyperparameters_.noise_variance * w.trace();

@@ -25,7 +25,8 @@ class GpModel {
 
   // Replaces data and hyperparameters; x: n x d (one point per row), y: n.
   // O(n^3). INVALID_ARGUMENT on inconsistent shapes or invalid hyperparameters
-  // (non-positive or non-finite), INTERNAL if even the largest jitter fails.
+  // (non-positive or non-finite), INTERNAL if even the largest jitter fails (the
+  // model is then left empty; cannot happen for finite data and hyperparameters).
   absl::Status Reset(Eigen::MatrixXd x, Eigen::VectorXd y,
                      const Hyperparameters& hyperparameters);
 
@@ -81,6 +82,7 @@ class GpModel {
   Eigen::MatrixXd x_;         // n x d
   Eigen::MatrixXd x_scaled_;  // x / lengthscales
   Eigen::VectorXd y_;
+  Eigen::MatrixXd kf_;     // noise-free K of the last factorisation (empty if stale)
   Eigen::MatrixXd l_;      // capacity x capacity; top-left n x n lower triangle is L
   Eigen::VectorXd beta_;   // L^-1 y
   Eigen::VectorXd alpha_;  // K^-1 y

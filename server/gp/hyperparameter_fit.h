@@ -65,7 +65,7 @@ struct FitOptions {
 struct FitSummary {
   bool fitted = false;  // false if hyperparameters are fixed (only refactorised)
   int starts = 0;
-  int iterations = 0;
+  int iterations = 0;     // L-BFGS-B iterations (evaluations for a failed start)
   int failed_starts = 0;  // line-search failures; their best iterate is kept
   double wall_time_ms = 0.0;
   // Added: objective evaluations (each an O(n^3) factorisation + gradient).

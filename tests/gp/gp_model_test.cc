@@ -108,6 +108,11 @@ TEST(GpModelTest, RowAppendEqualsRefactorisation) {
   EXPECT_LT((appended.alpha() - full.alpha()).cwiseAbs().maxCoeff(),
             1e-10 * full.alpha().cwiseAbs().maxCoeff());
   EXPECT_NEAR(appended.log_marginal_likelihood(), full.log_marginal_likelihood(), 1e-9);
+  EXPECT_LT(
+      (appended.LogMarginalLikelihoodGradient() - full.LogMarginalLikelihoodGradient())
+          .cwiseAbs()
+          .maxCoeff(),
+      1e-8);
   const Data test = MakeData(8, 3, 7);
   Eigen::VectorXd m1, v1, m2, v2;
   appended.Predict(test.x, &m1, &v1, nullptr, nullptr);
