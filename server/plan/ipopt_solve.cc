@@ -27,6 +27,7 @@ IpoptOutcome SolveTnlp(const Ipopt::SmartPtr<Ipopt::TNLP>& nlp,
     ok &= options->SetStringValue("hessian_approximation", "limited-memory");
     ok &= options->SetIntegerValue("max_iter", settings.max_iterations);
     ok &= options->SetNumericValue("tol", settings.tolerance);
+    ok &= options->SetNumericValue("obj_scaling_factor", settings.objective_scaling);
     for (const auto& [name, value] : settings.string_options) {
       ok &= options->SetStringValue(name, value);
     }

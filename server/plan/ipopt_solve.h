@@ -19,6 +19,9 @@ std::mutex& IpoptMutex();
 struct IpoptSettings {
   int max_iterations = 100;  // max_iter
   double tolerance = 1e-4;   // tol
+  // obj_scaling_factor: Ipopt minimises this times f (on top of its own
+  // gradient-based scaling, which only ever scales down).
+  double objective_scaling = 1.0;
   // Applied after the defaults above and below (e.g. derivative_test).
   std::vector<std::pair<std::string, std::string>> string_options;
   std::vector<std::pair<std::string, int>> integer_options;

@@ -1,0 +1,148 @@
+// One `rec` step (DynamicsModel::Refit + Planner::PlanInputs) and one `pa` plan on
+// the pendulum with n = 300 samples and M = 15, the paper's setting
+// (sim/configs/pendulum.textproto: m = l = 1, b = 0.1, dt = 0.1 s, |u| <= 3,
+// measurement noise variance 0.05). Counters split the time into refit and plan.
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <random>
+
+#include "server/gp/dynamics_model.h"
+#include "server/plan/planner.h"
+#include "sim/plants/pendulum.h"
+
+namespace excite::plan {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::duration d) {
+  return std::chrono::duration<double, std::milli>(d).count();
+}
+
+// n noisy transitions of the pendulum under random inputs held 5 steps (what an
+// exploration that has run for a while looks like), fitted once.
+gp::DynamicsModel FittedPendulumModel(int n) {
+  const sim::Pendulum pendulum(sim::PendulumParameters{}, 0.1, 10);
+  gp::DynamicsModelOptions o;
+  o.state_dim = 2;
+  o.input_dim = 1;
+  o.measurement_noise_variance = 0.05;
+  o.input_center = Eigen::Vector3d(0.0, 0.0, 0.0);
+  o.input_half_width = Eigen::Vector3d(M_PI, 8.0, 3.0);
+  auto model = gp::DynamicsModel::Create(o);
+  if (!model.ok()) std::abort();
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> input(-3.0, 3.0);
+  std::normal_distribution<double> noise(0.0, std::sqrt(0.05));
+  Eigen::MatrixXd states(n, 2), inputs(n, 1), next(n, 2);
+  Eigen::VectorXd x = Eigen::Vector2d(0.0, 0.0);
+  Eigen::VectorXd u(1);
+  for (int k = 0; k < n; ++k) {
+    if (k % 5 == 0) u(0) = input(rng);
+    const Eigen::VectorXd x1 = pendulum.Step(x, u);
+    states.row(k) = (x + Eigen::Vector2d(noise(rng), noise(rng))).transpose();
+    inputs(k, 0) = u(0);
+    next.row(k) = (x1 + Eigen::Vector2d(noise(rng), noise(rng))).transpose();
+    x = x1;
+  }
+  if (!model->AddSamples(states, inputs, next).ok() || !model->Refit().ok()) std::abort();
+  return *std::move(model);
+}
+
+PlanOptions PendulumOptions(Strategy strategy) {
+  PlanOptions o;
+  o.strategy = strategy;
+  o.horizon = 15;
+  o.input_lower = Eigen::VectorXd::Constant(1, -3.0);
+  o.input_upper = Eigen::VectorXd::Constant(1, 3.0);
+  return o;
+}
+
+// One receding-horizon step: refit (hyperparameters warm-started, n fixed at 300)
+// then plan from the state the previous plan predicted (warm start in use).
+void BM_RecStep(benchmark::State& state) {
+  gp::DynamicsModel model = FittedPendulumModel(300);
+  PlanOptions options = PendulumOptions(Strategy::kRec);
+  if (state.range(0) > 0) options.max_iterations = static_cast<int>(state.range(0));
+  if (state.range(1) >= 0) options.restarts = static_cast<int>(state.range(1));
+  Planner planner(options);
+  Eigen::VectorXd x = Eigen::Vector2d(0.3, 0.5);
+  double refit_ms = 0.0, plan_ms = 0.0, iterations = 0.0, entropy = 0.0;
+  for (auto _ : state) {
+    const Clock::time_point t0 = Clock::now();
+    auto fit = model.Refit();
+    const Clock::time_point t1 = Clock::now();
+    PlanSummary summary;
+    auto plan = planner.PlanInputs(model, x, PlanLimits{}, &summary);
+    const Clock::time_point t2 = Clock::now();
+    if (!fit.ok() || !plan.ok()) {
+      state.SkipWithError("refit or plan failed");
+      break;
+    }
+    refit_ms += Ms(t1 - t0);
+    plan_ms += Ms(t2 - t1);
+    iterations += summary.iterations;
+    entropy += summary.objective;
+    x = plan->states.row(1).transpose();
+    benchmark::DoNotOptimize(plan->inputs.data());
+  }
+  const auto avg = benchmark::Counter::kAvgIterations;
+  state.counters["refit_ms"] = benchmark::Counter(refit_ms, avg);
+  state.counters["plan_ms"] = benchmark::Counter(plan_ms, avg);
+  state.counters["ipopt_iters"] = benchmark::Counter(iterations, avg);
+  state.counters["entropy"] = benchmark::Counter(entropy, avg);
+}
+// Args: (max_iterations, restarts); 0 / -1 = the PlanOptions defaults.
+BENCHMARK(BM_RecStep)
+    ->Args({0, -1})
+    ->Args({0, 0})
+    ->Args({0, 3})
+    ->Iterations(10)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// One plan-and-apply plan from rest (a fresh planner: no warm start, first-call
+// starts), on a fitted model.
+void BM_PaPlan(benchmark::State& state) {
+  const gp::DynamicsModel model = FittedPendulumModel(300);
+  double iterations = 0.0, entropy = 0.0;
+  for (auto _ : state) {
+    Planner planner(PendulumOptions(Strategy::kPa));
+    PlanSummary summary;
+    auto plan =
+        planner.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), PlanLimits{}, &summary);
+    if (!plan.ok()) {
+      state.SkipWithError("plan failed");
+      break;
+    }
+    iterations += summary.iterations;
+    entropy += summary.objective;
+    benchmark::DoNotOptimize(plan->inputs.data());
+  }
+  const auto avg = benchmark::Counter::kAvgIterations;
+  state.counters["ipopt_iters"] = benchmark::Counter(iterations, avg);
+  state.counters["entropy"] = benchmark::Counter(entropy, avg);
+}
+BENCHMARK(BM_PaPlan)->Iterations(10)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The model alone: one batched Predict of M = 15 points with Jacobians (what one
+// NLP evaluation costs) at n = 300.
+void BM_PredictWithJacobians(benchmark::State& state) {
+  const gp::DynamicsModel model = FittedPendulumModel(300);
+  const Eigen::MatrixXd z = Eigen::MatrixXd::Random(15, 3);
+  Eigen::MatrixXd mean, variance;
+  std::vector<Eigen::MatrixXd> jm, jv;
+  for (auto _ : state) {
+    model.Predict(z, &mean, &variance, &jm, &jv);
+    benchmark::DoNotOptimize(mean.data());
+  }
+}
+BENCHMARK(BM_PredictWithJacobians)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace excite::plan
+
+BENCHMARK_MAIN();
