@@ -8,7 +8,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <random>
+#include <vector>
 
+#include "absl/status/status.h"
 #include "server/gp/dynamics_model.h"
 #include "server/plan/planner.h"
 #include "sim/plants/pendulum.h"
@@ -22,10 +24,33 @@ double Ms(Clock::duration d) {
   return std::chrono::duration<double, std::milli>(d).count();
 }
 
-// n noisy transitions of the pendulum under random inputs held 5 steps (what an
-// exploration that has run for a while looks like), fitted once.
-gp::DynamicsModel FittedPendulumModel(int n) {
+// Noisy transitions of the pendulum under random inputs held 5 steps (what an
+// exploration that has run for a while looks like).
+struct Transitions {
+  Eigen::MatrixXd states, inputs, next;
+};
+
+Transitions PendulumData(int n) {
   const sim::Pendulum pendulum(sim::PendulumParameters{}, 0.1, 10);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> input(-3.0, 3.0);
+  std::normal_distribution<double> noise(0.0, std::sqrt(0.05));
+  Transitions t{Eigen::MatrixXd(n, 2), Eigen::MatrixXd(n, 1), Eigen::MatrixXd(n, 2)};
+  Eigen::VectorXd x = Eigen::Vector2d(0.0, 0.0);
+  Eigen::VectorXd u(1);
+  for (int k = 0; k < n; ++k) {
+    if (k % 5 == 0) u(0) = input(rng);
+    const Eigen::VectorXd x1 = pendulum.Step(x, u);
+    t.states.row(k) = (x + Eigen::Vector2d(noise(rng), noise(rng))).transpose();
+    t.inputs(k, 0) = u(0);
+    t.next.row(k) = (x1 + Eigen::Vector2d(noise(rng), noise(rng))).transpose();
+    x = x1;
+  }
+  return t;
+}
+
+// A model holding the first n transitions of `data`, fitted once.
+gp::DynamicsModel FittedPendulumModel(const Transitions& data, int n) {
   gp::DynamicsModelOptions o;
   o.state_dim = 2;
   o.input_dim = 1;
@@ -33,22 +58,14 @@ gp::DynamicsModel FittedPendulumModel(int n) {
   o.input_center = Eigen::Vector3d(0.0, 0.0, 0.0);
   o.input_half_width = Eigen::Vector3d(M_PI, 8.0, 3.0);
   auto model = gp::DynamicsModel::Create(o);
-  if (!model.ok()) std::abort();
-  std::mt19937_64 rng(11);
-  std::uniform_real_distribution<double> input(-3.0, 3.0);
-  std::normal_distribution<double> noise(0.0, std::sqrt(0.05));
-  Eigen::MatrixXd states(n, 2), inputs(n, 1), next(n, 2);
-  Eigen::VectorXd x = Eigen::Vector2d(0.0, 0.0);
-  Eigen::VectorXd u(1);
-  for (int k = 0; k < n; ++k) {
-    if (k % 5 == 0) u(0) = input(rng);
-    const Eigen::VectorXd x1 = pendulum.Step(x, u);
-    states.row(k) = (x + Eigen::Vector2d(noise(rng), noise(rng))).transpose();
-    inputs(k, 0) = u(0);
-    next.row(k) = (x1 + Eigen::Vector2d(noise(rng), noise(rng))).transpose();
-    x = x1;
+  if (!model.ok() ||
+      !model
+           ->AddSamples(data.states.topRows(n), data.inputs.topRows(n),
+                        data.next.topRows(n))
+           .ok() ||
+      !model->Refit().ok()) {
+    std::abort();
   }
-  if (!model->AddSamples(states, inputs, next).ok() || !model->Refit().ok()) std::abort();
   return *std::move(model);
 }
 
@@ -61,32 +78,43 @@ PlanOptions PendulumOptions(Strategy strategy) {
   return o;
 }
 
-// One receding-horizon step: refit (hyperparameters warm-started, n fixed at 300)
-// then plan from the state the previous plan predicted (warm start in use).
+// One receding-horizon step at n ~ 300: add the newest transition, refit
+// (hyperparameters warm-started from the previous fit), plan from the newest
+// measured state with the warm start of the previous plan. n grows by one per
+// iteration (300 -> 300 + iterations).
 void BM_RecStep(benchmark::State& state) {
-  gp::DynamicsModel model = FittedPendulumModel(300);
+  const int kMaxSteps = 50;
+  const Transitions data = PendulumData(300 + kMaxSteps);
+  gp::DynamicsModel model = FittedPendulumModel(data, 300);
   PlanOptions options = PendulumOptions(Strategy::kRec);
   if (state.range(0) > 0) options.max_iterations = static_cast<int>(state.range(0));
   if (state.range(1) >= 0) options.restarts = static_cast<int>(state.range(1));
   Planner planner(options);
-  Eigen::VectorXd x = Eigen::Vector2d(0.3, 0.5);
   double refit_ms = 0.0, plan_ms = 0.0, iterations = 0.0, entropy = 0.0;
+  int k = 300;
   for (auto _ : state) {
+    if (k >= 300 + kMaxSteps) {
+      state.SkipWithError("too many iterations for the pregenerated data");
+      break;
+    }
     const Clock::time_point t0 = Clock::now();
+    const absl::Status added =
+        model.AddSamples(data.states.row(k), data.inputs.row(k), data.next.row(k));
     auto fit = model.Refit();
     const Clock::time_point t1 = Clock::now();
     PlanSummary summary;
-    auto plan = planner.PlanInputs(model, x, PlanLimits{}, &summary);
+    auto plan =
+        planner.PlanInputs(model, data.next.row(k).transpose(), PlanLimits{}, &summary);
     const Clock::time_point t2 = Clock::now();
-    if (!fit.ok() || !plan.ok()) {
-      state.SkipWithError("refit or plan failed");
+    ++k;
+    if (!added.ok() || !fit.ok() || !plan.ok()) {
+      state.SkipWithError("add, refit or plan failed");
       break;
     }
     refit_ms += Ms(t1 - t0);
     plan_ms += Ms(t2 - t1);
     iterations += summary.iterations;
     entropy += summary.objective;
-    x = plan->states.row(1).transpose();
     benchmark::DoNotOptimize(plan->inputs.data());
   }
   const auto avg = benchmark::Counter::kAvgIterations;
@@ -107,7 +135,7 @@ BENCHMARK(BM_RecStep)
 // One plan-and-apply plan from rest (a fresh planner: no warm start, first-call
 // starts), on a fitted model.
 void BM_PaPlan(benchmark::State& state) {
-  const gp::DynamicsModel model = FittedPendulumModel(300);
+  const gp::DynamicsModel model = FittedPendulumModel(PendulumData(300), 300);
   double iterations = 0.0, entropy = 0.0;
   for (auto _ : state) {
     Planner planner(PendulumOptions(Strategy::kPa));
@@ -131,7 +159,7 @@ BENCHMARK(BM_PaPlan)->Iterations(10)->Unit(benchmark::kMillisecond)->UseRealTime
 // The model alone: one batched Predict of M = 15 points with Jacobians (what one
 // NLP evaluation costs) at n = 300.
 void BM_PredictWithJacobians(benchmark::State& state) {
-  const gp::DynamicsModel model = FittedPendulumModel(300);
+  const gp::DynamicsModel model = FittedPendulumModel(PendulumData(300), 300);
   const Eigen::MatrixXd z = Eigen::MatrixXd::Random(15, 3);
   Eigen::MatrixXd mean, variance;
   std::vector<Eigen::MatrixXd> jm, jv;
