@@ -79,6 +79,7 @@ class ExplorationRun {
   PortableRandom input_random_;
 
   std::string session_name_;
+  int64_t min_samples_ = 2;
   EvaluationSet evaluation_set_;
   v1::PredictRequest predict_request_;
   Eigen::VectorXd x_;  // True state.
@@ -113,6 +114,13 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
       client_.CreateSession(config_.session(), options_.session_id);
   if (!session.ok()) return Annotate(session.status(), "CreateSession");
   session_name_ = session->name();
+  // The server fills the defaults into the config it returns; 2 is the documented
+  // default should it not.
+  min_samples_ = session->config().refit().min_samples() > 0
+                     ? session->config().refit().min_samples()
+                 : config_.session().refit().min_samples() > 0
+                     ? config_.session().refit().min_samples()
+                     : 2;
 
   predict_request_.set_session(session_name_);
   predict_request_.set_include_noise(false);
@@ -158,10 +166,7 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
 }
 
 absl::Status ExplorationRun::Explore() {
-  const v1::SessionConfig& session = config_.session();
   const int64_t target = config_.samples();
-  const int64_t min_samples =
-      session.refit().min_samples() > 0 ? session.refit().min_samples() : 2;
 
   x_ = Eigen::VectorXd::Zero(dx_);
   for (int i = 0; i < config_.plant().initial_state_size(); ++i) {
@@ -177,7 +182,7 @@ absl::Status ExplorationRun::Explore() {
         session_name_, std::vector<double>(y_.data(), y_.data() + dx_));
     if (!plan.ok()) {
       if (plan.status().code() != absl::StatusCode::kFailedPrecondition ||
-          samples_ >= min_samples) {
+          samples_ >= min_samples_) {
         return Annotate(plan.status(), "PlanInputs");
       }
       // Too little data to plan: one uniformly random input.
@@ -257,11 +262,8 @@ absl::Status ExplorationRun::FlushAndMaybeEvaluate() {
                      reply->sample_count(), " samples, expected ", samples_));
   }
   const int64_t every = config_.evaluation().every_samples();
-  const int64_t min_samples = config_.session().refit().min_samples() > 0
-                                  ? config_.session().refit().min_samples()
-                                  : 2;
   if ((samples_ % every == 0 || samples_ == config_.samples()) &&
-      samples_ >= min_samples) {
+      samples_ >= min_samples_) {
     return Evaluate();
   }
   return absl::OkStatus();
