@@ -4,6 +4,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/time/time.h"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/health_check_service_interface.h"
 #include "grpcpp/security/server_credentials.h"
@@ -96,7 +97,13 @@ void ExciteServer::Shutdown(std::chrono::milliseconds grace) {
   if (grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService()) {
     health->SetServingStatus(false);
   }
-  server_->Shutdown(std::chrono::system_clock::now() + grace);
+  // Refuse new RPCs, let those in flight finish within the grace period, then
+  // shut down at once (cancelling whatever is still running).
+  service_->StartDraining();
+  if (!service_->WaitIdle(absl::FromChrono(grace))) {
+    Log(LogLevel::kWarning, "grace period over: cancelling the RPCs still in flight");
+  }
+  server_->Shutdown(std::chrono::system_clock::now());
 }
 
 void ExciteServer::Wait() {

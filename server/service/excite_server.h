@@ -44,8 +44,9 @@ class ExciteServer {
   // "host:port" (IPv6 hosts in brackets), ready to dial.
   std::string address() const;
 
-  // Health NOT_SERVING, then stops accepting RPCs; in-flight RPCs get `grace` to
-  // finish, then are cancelled. Idempotent; thread-safe.
+  // Health NOT_SERVING, new RPCs get UNAVAILABLE, in-flight RPCs get `grace` to
+  // finish, then the server stops (cancelling what is left). Idempotent;
+  // thread-safe.
   void Shutdown(std::chrono::milliseconds grace);
   // Blocks until the server has shut down.
   void Wait();

@@ -18,34 +18,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Runs one RPC body: catches anything thrown, logs one debug line, converts the
-// status.
-template <typename Body>
-grpc::Status RunRpc(absl::string_view method, const std::string& session, Body&& body) {
-  const Clock::time_point start = Clock::now();
-  absl::Status status;
-  try {
-    status = body();
-  } catch (const std::exception& e) {
-    status =
-        absl::InternalError(absl::StrCat(method, ": unexpected exception: ", e.what()));
-  } catch (...) {
-    status = absl::InternalError(absl::StrCat(method, ": unexpected exception"));
-  }
-  if (LogEnabled(LogLevel::kDebug) ||
-      (!status.ok() && status.code() == absl::StatusCode::kInternal)) {
-    const double ms =
-        std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-    Log(status.code() == absl::StatusCode::kInternal ? LogLevel::kError
-                                                     : LogLevel::kDebug,
-        absl::StrCat("rpc ", method, " session=", session.empty() ? "-" : session,
-                     " status=", absl::StatusCodeToString(status.code()),
-                     status.ok() ? "" : absl::StrCat(" (", status.message(), ")"),
-                     " ms=", absl::SixDigits(ms)));
-  }
-  return ToGrpcStatus(status);
-}
-
 // min(client deadline - a margin for the reply, budget) as a steady-clock time.
 Clock::time_point PlanDeadline(const grpc::ServerContext& context, double budget_s) {
   const Clock::time_point now = Clock::now();
@@ -66,6 +38,59 @@ Clock::time_point PlanDeadline(const grpc::ServerContext& context, double budget
 
 ExplorationService::ExplorationService(SessionRegistry* registry, ServiceLimits limits)
     : registry_(registry), limits_(limits) {}
+
+void ExplorationService::StartDraining() {
+  absl::MutexLock lock(&mu_);
+  draining_ = true;
+}
+
+bool ExplorationService::WaitIdle(absl::Duration timeout) {
+  absl::MutexLock lock(&mu_);
+  const auto idle = [this]()
+                        ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) { return in_flight_ == 0; };
+  return mu_.AwaitWithTimeout(absl::Condition(&idle), timeout);
+}
+
+template <typename Body>
+grpc::Status ExplorationService::RunRpc(absl::string_view method,
+                                        const std::string& session, Body&& body) {
+  const Clock::time_point start = Clock::now();
+  absl::Status status;
+  bool admitted = false;
+  {
+    absl::MutexLock lock(&mu_);
+    if (!draining_) {
+      ++in_flight_;
+      admitted = true;
+    }
+  }
+  if (!admitted) {
+    status = absl::UnavailableError("excite-server is shutting down: retry later");
+  } else {
+    try {
+      status = body();
+    } catch (const std::exception& e) {
+      status =
+          absl::InternalError(absl::StrCat(method, ": unexpected exception: ", e.what()));
+    } catch (...) {
+      status = absl::InternalError(absl::StrCat(method, ": unexpected exception"));
+    }
+    absl::MutexLock lock(&mu_);
+    --in_flight_;
+  }
+  if (LogEnabled(LogLevel::kDebug) ||
+      (!status.ok() && status.code() == absl::StatusCode::kInternal)) {
+    const double ms =
+        std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    Log(status.code() == absl::StatusCode::kInternal ? LogLevel::kError
+                                                     : LogLevel::kDebug,
+        absl::StrCat("rpc ", method, " session=", session.empty() ? "-" : session,
+                     " status=", absl::StatusCodeToString(status.code()),
+                     status.ok() ? "" : absl::StrCat(" (", status.message(), ")"),
+                     " ms=", absl::SixDigits(ms)));
+  }
+  return ToGrpcStatus(status);
+}
 
 grpc::Status ExplorationService::CreateSession(grpc::ServerContext* /*context*/,
                                                const v1::CreateSessionRequest* request,

@@ -3,6 +3,10 @@
 
 #include <cstdint>
 
+#include "absl/base/thread_annotations.h"
+#include "absl/status/status.h"
+#include "absl/synchronization/mutex.h"
+#include "absl/time/time.h"
 #include "excite/v1/exploration_service.grpc.pb.h"
 #include "server/service/session_registry.h"
 
@@ -19,6 +23,10 @@ struct ServiceLimits {
 // The synchronous gRPC service: translates requests into session calls and
 // absl::Status into grpc::Status. Every RPC is logged at debug level (method,
 // session, status, ms). No exception escapes an RPC. Thread-safe.
+//
+// Draining: after StartDraining() new RPCs fail with UNAVAILABLE while those in
+// flight finish; WaitIdle() waits for them. (grpc::Server::Shutdown alone waits
+// for the whole grace period whenever a client keeps an idle connection open.)
 class ExplorationService final : public v1::ExplorationService::Service {
  public:
   // `registry` must outlive the service.
@@ -45,7 +53,21 @@ class ExplorationService final : public v1::ExplorationService::Service {
                           const v1::PlanInputsRequest* request,
                           v1::PlanInputsResponse* response) override;
 
+  // New RPCs get UNAVAILABLE from now on.
+  void StartDraining();
+  // Waits until no RPC is in flight or `timeout` passed; true if idle.
+  bool WaitIdle(absl::Duration timeout);
+
  private:
+  // Runs one RPC body: refuses it while draining, counts it in flight, catches
+  // anything thrown, logs one debug line, converts the status.
+  template <typename Body>
+  grpc::Status RunRpc(absl::string_view method, const std::string& session, Body&& body);
+
+  absl::Mutex mu_;
+  bool draining_ ABSL_GUARDED_BY(mu_) = false;
+  int64_t in_flight_ ABSL_GUARDED_BY(mu_) = 0;
+
   SessionRegistry* const registry_;
   const ServiceLimits limits_;
 };
