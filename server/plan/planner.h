@@ -1,11 +1,12 @@
 #ifndef EXCITE_SERVER_PLAN_PLANNER_H_
 #define EXCITE_SERVER_PLAN_PLANNER_H_
 
-#include <Eigen/Dense>
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <optional>
+
+#include <Eigen/Dense>
 
 #include "absl/status/statusor.h"
 #include "server/gp/dynamics_predictor.h"
@@ -48,7 +49,7 @@ struct Plan {
 
 struct PlanSummary {
   PlanStatus status = PlanStatus::kNotConverged;
-  int iterations = 0;  // summed over starts
+  int iterations = 0;      // summed over starts
   int starts = 0;
   double objective = 0.0;  // summed differential entropy of the returned plan (nats)
   double wall_time_ms = 0.0;
