@@ -128,6 +128,10 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
   const auto past_deadline = [&limits] {
     return limits.deadline.has_value() && Clock::now() >= *limits.deadline;
   };
+  // Any input sequence rolled out through the mean is a feasible plan, so once the
+  // starts are rolled out a feasible plan exists: CANCELLED is returned only when
+  // cancelled() is already true here; a later cancel (or the deadline) returns
+  // the best plan so far with status kTimeLimit.
   if (cancelled()) return absl::CancelledError("planning cancelled before it started");
 
   const int horizon = options_.strategy == Strategy::kGreedy ? 1 : options_.horizon;
