@@ -11,6 +11,7 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "absl/strings/ascii.h"
@@ -358,6 +359,90 @@ TEST_F(ServiceTest, RestartKeepsExactlyTheAcknowledgedSamples) {
   ASSERT_TRUE(restored.ok()) << restored.status();
   EXPECT_NEAR(restored->mean(0), before->mean(0), 1e-3);
   EXPECT_NEAR(restored->mean(1), before->mean(1), 1e-3);
+}
+
+TEST_F(ServiceTest, RefitNeverKeepsSavedHyperparametersAcrossRestart) {
+  v1::SessionConfig config = PendulumConfig();
+  config.mutable_refit()->set_never(true);
+  const std::string name = Create("frozen", config).name();
+  Add(name, {PendulumTransitions(25, 0, 11)});
+  v1::PredictRequest predict;
+  predict.set_session(name);
+  for (double v : {0.3, -0.4, 1.0}) predict.add_inputs(v);
+  ASSERT_TRUE(client_->Predict(predict).ok());
+  // More data: no refit (model_version counts the add only).
+  const v1::AddDataResponse more = Add(name, {PendulumTransitions(5, 25, 12)});
+  absl::StatusOr<v1::PredictResponse> before = client_->Predict(predict);
+  ASSERT_TRUE(before.ok()) << before.status();
+  EXPECT_EQ(before->model_version(), more.model_version());
+  const v1::Session fitted = *client_->GetSession(name);
+  ASSERT_EQ(fitted.outputs_size(), 2);
+
+  StopServer();
+  StartServer();
+  EXPECT_EQ(client_->GetSession(name)->outputs_size(), 0);  // fitted lazily
+  absl::StatusOr<v1::PredictResponse> after = client_->Predict(predict);
+  ASSERT_TRUE(after.ok()) << after.status();
+  const v1::Session restored = *client_->GetSession(name);
+  ASSERT_EQ(restored.outputs_size(), 2);
+  for (int i = 0; i < 2; ++i) {
+    const v1::Hyperparameters& a = fitted.outputs(i).hyperparameters();
+    const v1::Hyperparameters& b = restored.outputs(i).hyperparameters();
+    EXPECT_NEAR(b.signal_variance(), a.signal_variance(), 1e-9 * a.signal_variance());
+    EXPECT_NEAR(b.noise_variance(), a.noise_variance(), 1e-9 * a.noise_variance());
+    for (int l = 0; l < 3; ++l) {
+      EXPECT_NEAR(b.lengthscales(l), a.lengthscales(l), 1e-9 * a.lengthscales(l));
+    }
+  }
+  // Not bit-identical: the output standardisation (the GP's prior mean) is taken
+  // from all 30 samples now, from the first 25 before.
+  EXPECT_NEAR(after->mean(0), before->mean(0), 1e-4);
+  EXPECT_NEAR(after->mean(1), before->mean(1), 1e-4);
+}
+
+// Sessions work in parallel; one session's calls are serialised. Four threads
+// stream into and plan for their own sessions while a fifth lists and reads.
+TEST_F(ServiceTest, ConcurrentSessions) {
+  constexpr int kThreads = 4;
+  std::vector<std::string> names;
+  for (int i = 0; i < kThreads; ++i) {
+    names.push_back(Create("par-" + std::to_string(i)).name());
+  }
+  std::vector<std::thread> threads;
+  std::vector<int> failures(kThreads + 1, 0);
+  for (int i = 0; i < kThreads; ++i) {
+    threads.emplace_back([&, i]() {
+      for (int step = 0; step < 4; ++step) {
+        // Two writers per session: one from this thread, the same batch again
+        // from a helper (duplicates must be detected whatever the order).
+        const std::vector<v1::Transition> batch =
+            PendulumTransitions(5, 5 * step, static_cast<uint32_t>(100 + i));
+        std::thread twin([&]() {
+          if (!client_->AddData(names[i], {batch}).ok()) ++failures[i];
+        });
+        if (!client_->AddData(names[i], {batch}).ok()) ++failures[i];
+        twin.join();
+        if (!client_->PlanInputs(names[i], {0.0, 0.0}).ok()) ++failures[i];
+      }
+    });
+  }
+  threads.emplace_back([&]() {
+    for (int k = 0; k < 20; ++k) {
+      absl::StatusOr<v1::ListSessionsResponse> list = client_->ListSessions(0, "");
+      if (!list.ok() || list->sessions_size() != kThreads) ++failures[kThreads];
+    }
+  });
+  for (std::thread& t : threads) t.join();
+  for (int i = 0; i <= kThreads; ++i) EXPECT_EQ(failures[i], 0) << "thread " << i;
+  for (const std::string& name : names) {
+    EXPECT_EQ(client_->GetSession(name)->sample_count(), 20) << name;
+  }
+}
+
+TEST_F(ServiceTest, DrainingRefusesNewRpcs) {
+  server_->Shutdown(std::chrono::milliseconds(100));
+  absl::Status status = client_->ListSessions(0, "").status();
+  EXPECT_EQ(status.code(), absl::StatusCode::kUnavailable) << status;
 }
 
 TEST_F(ServiceTest, ErrorCodes) {
