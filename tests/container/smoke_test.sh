@@ -1,0 +1,166 @@
+#!/usr/bin/env bash
+# Container smoke test (ctest label "container"): builds the excite image from
+# deploy/Containerfile with podman and runs it the way a deployment does.
+#
+#  1. base image: localhost/debian:bookworm from Debian's mirror (debootstrap), only
+#     if it is not there yet (deploy/podman/base-image.sh);
+#  2. the image (podman's layer cache makes an unchanged rebuild quick); checks that
+#     it runs as a non-root user, has no compiler or headers, exposes 50051, has a
+#     health check and a data volume;
+#  3. the server container, read-only root filesystem, data on a named volume, no
+#     --init (excite-server is PID 1); waits until its HEALTHCHECK (excite-health,
+#     grpc.health.v1) says healthy;
+#  4. a plant container on the same network: excite-sim explores the pendulum with
+#     rec for $EXCITE_SMOKE_SAMPLES samples; checks the JSON summary;
+#  5. the excite CLI from a third container sees the kept session;
+#  6. SIGTERM to the server: must exit 0 within the drain time and log it;
+#  7. a new server container on the same volume still has the session (durable
+#     store on the volume); podman stop (SIGTERM) again exits 0.
+#
+# Environment: EXCITE_BASE_IMAGE (default localhost/debian:bookworm),
+# EXCITE_IMAGE (default localhost/excite:ci), EXCITE_SMOKE_SAMPLES (default 30),
+# CONTAINERS_CONF (default deploy/podman/containers.conf). Needs root and podman,
+# runc, debootstrap (scripts/setup.sh installs them).
+set -euo pipefail
+repo="$(cd "$(dirname "$0")/../.." && pwd)"
+cd "$repo"
+export CONTAINERS_CONF="${CONTAINERS_CONF:-$repo/deploy/podman/containers.conf}"
+base="${EXCITE_BASE_IMAGE:-localhost/debian:bookworm}"
+image="${EXCITE_IMAGE:-localhost/excite:ci}"
+samples="${EXCITE_SMOKE_SAMPLES:-30}"
+tag="excite-smoke-$$"
+net="$tag-net"
+vol="$tag-data"
+server="$tag-server"
+out="$(mktemp -d /tmp/excite-smoke.XXXXXX)"
+t0=$SECONDS
+
+log() { echo "[smoke $((SECONDS - t0))s] $*"; }
+fail() {
+  echo "[smoke] FAIL: $*" >&2
+  for c in "$server" "$server-2"; do
+    if podman container exists "$c" 2>/dev/null; then
+      echo "--- logs of $c" >&2
+      podman logs "$c" >&2 2>&1 || true
+    fi
+  done
+  exit 1
+}
+cleanup() {
+  podman rm -f -t 0 "$server" "$server-2" >/dev/null 2>&1 || true
+  podman volume rm -f "$vol" >/dev/null 2>&1 || true
+  podman network rm -f "$net" >/dev/null 2>&1 || true
+  rm -rf "$out"
+}
+trap cleanup EXIT
+
+for tool in podman runc debootstrap /usr/bin/python3; do
+  command -v "$tool" >/dev/null || fail "$tool is missing (run scripts/setup.sh)"
+done
+
+# 1. Base image.
+deploy/podman/base-image.sh "$base"
+log "base image ready"
+
+# 2. Image. --format docker keeps the HEALTHCHECK (OCI images have none).
+podman build --quiet --format docker --build-arg BASE="$base" \
+  -f deploy/Containerfile -t "$image" . >"$out/build.log" 2>&1 ||
+  { tail -40 "$out/build.log" >&2; fail "podman build failed"; }
+size=$(podman image inspect --format '{{.Size}}' "$image")
+log "image $image built: $((size / 1000000)) MB"
+[ "$(podman image inspect --format '{{.Config.User}}' "$image")" = "10001:10001" ] ||
+  fail "image does not run as user 10001:10001"
+podman image inspect --format '{{json .Config.ExposedPorts}}' "$image" | grep -q '50051/tcp' ||
+  fail "image does not expose 50051/tcp"
+podman image inspect --format '{{json .Config.Volumes}}' "$image" | grep -q '/var/lib/excite' ||
+  fail "image has no /var/lib/excite volume"
+podman image inspect --format '{{json .Config.Healthcheck}}' "$image" | grep -q 'excite-health' ||
+  fail "image has no excite-health HEALTHCHECK"
+# Runtime stage: binaries and libraries only.
+podman run --rm --entrypoint /bin/sh "$image" -c \
+  'for t in c++ g++ cmake protoc; do command -v $t && exit 1; done
+   test ! -e /usr/include/grpcpp && test ! -e /src && id -u' >"$out/probe.txt" ||
+  fail "runtime image holds build tools or sources: $(cat "$out/probe.txt")"
+[ "$(cat "$out/probe.txt")" = "10001" ] || fail "container user is $(cat "$out/probe.txt")"
+
+# 3. Server: PID 1, read-only root, data on a named volume.
+podman network create "$net" >/dev/null
+podman volume create "$vol" >/dev/null
+podman run -d --name "$server" --network "$net" --read-only \
+  -v "$vol:/var/lib/excite" -e FLAGS_log_level=info "$image" >/dev/null
+healthy=0
+for _ in $(seq 1 60); do
+  if podman healthcheck run "$server" >/dev/null 2>&1; then
+    healthy=1
+    break
+  fi
+  sleep 1
+done
+[ "$healthy" = 1 ] || fail "server never became healthy (grpc.health.v1 SERVING)"
+podman exec "$server" cat /proc/1/cmdline | tr '\0' ' ' | grep -q '^excite-server ' ||
+  fail "excite-server is not PID 1"
+log "server healthy"
+
+# 4. Plant client in a second container.
+chmod 0777 "$out"
+podman run --rm --network "$net" --read-only -v "$out:/out" "$image" \
+  excite-sim --server="$server:50051" \
+  --config=/usr/local/share/excite/configs/pendulum.textproto --strategy=rec \
+  --samples="$samples" --seed=1 --session_id=smoke --keep_session \
+  --summary=/out/summary.json >"$out/sim.log" 2>&1 ||
+  { cat "$out/sim.log" >&2; fail "excite-sim failed"; }
+log "exploration done: $(grep '^final' "$out/sim.log" || true)"
+/usr/bin/python3 - "$out/summary.json" "$samples" <<'PY' || fail "summary check failed"
+import json, math, sys
+s = json.load(open(sys.argv[1]))
+n = int(sys.argv[2])
+def check(ok, what):
+    if not ok:
+        sys.exit(f"summary: {what}: {json.dumps(s)}")
+check(s["system"] == "pendulum", "system")
+check(s["strategy"] == "rec", "strategy")
+check(s["session"] == "sessions/smoke", "session name")
+check(s["samples"] == n, "samples")
+rmse = s["final_rmse"]
+check(isinstance(rmse, float) and math.isfinite(rmse) and 0 < rmse < 5, "final_rmse")
+hist = s["rmse_history"]
+check(len(hist) >= 2 and hist[-1][0] == n and hist[-1][1] == rmse, "rmse_history")
+check(all(a[0] < b[0] for a, b in zip(hist, hist[1:])), "rmse_history order")
+check(0 < s["coverage_marginal"] <= 1, "coverage_marginal")
+check(s["random_steps"] >= 1 and s["plans"] >= 1, "plans and random steps")
+# rec applies one planned input per plan: every sample is a plan or a random step.
+check(s["plans"] + s["random_steps"] == n, "plans + random_steps == samples")
+check(s["plan_ms_p50"] > 0, "plan_ms_p50")
+print(f"summary ok: final_rmse {rmse:.3f}, coverage {s['coverage_marginal']:.2f}, "
+      f"plans {s['plans']}, plan_ms_p50 {s['plan_ms_p50']:.0f}, wall_s {s['wall_s']:.1f}")
+PY
+
+# 5. The CLI sees the kept session.
+podman run --rm --network "$net" "$image" \
+  excite --server="$server:50051" sessions get smoke >"$out/get.txt" 2>&1 ||
+  { cat "$out/get.txt" >&2; fail "excite sessions get failed"; }
+grep -q "^sample_count: $samples\$" "$out/get.txt" ||
+  fail "session has not $samples samples: $(cat "$out/get.txt")"
+
+# 6. SIGTERM to PID 1: graceful drain and exit 0.
+stop_start=$SECONDS
+podman kill --signal TERM "$server" >/dev/null
+code=$(timeout 30 podman wait "$server") || fail "server did not stop within 30 s of SIGTERM"
+[ "$code" = 0 ] || fail "server exited with $code after SIGTERM (want 0)"
+podman logs "$server" 2>&1 | grep -q 'received SIGTERM' || fail "server did not log SIGTERM"
+log "server stopped by SIGTERM in $((SECONDS - stop_start)) s, exit 0"
+
+# 7. The session survives on the volume; podman stop exits 0 as well.
+podman run -d --name "$server-2" --network "$net" --read-only \
+  -v "$vol:/var/lib/excite" "$image" >/dev/null
+podman run --rm --network "$net" "$image" excite-health --server="$server-2:50051" \
+  --wait_s=60 >/dev/null || fail "restarted server never became healthy"
+podman run --rm --network "$net" "$image" \
+  excite --server="$server-2:50051" sessions get smoke >"$out/get2.txt" 2>&1 ||
+  { cat "$out/get2.txt" >&2; fail "session lost after restart"; }
+grep -q "^sample_count: $samples\$" "$out/get2.txt" ||
+  fail "restarted session has not $samples samples: $(cat "$out/get2.txt")"
+podman stop -t 20 "$server-2" >/dev/null
+code=$(podman inspect --format '{{.State.ExitCode}}' "$server-2")
+[ "$code" = 0 ] || fail "podman stop: server exited with $code (want 0)"
+log "restart kept the session; podman stop exit 0; PASS"
