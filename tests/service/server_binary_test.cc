@@ -1,6 +1,7 @@
 // The excite-server executable as other processes see it: the one stdout line
 // announcing the port, grpc.health.v1 SERVING, and a clean exit 0 on SIGTERM.
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
@@ -34,15 +35,17 @@ namespace {
 class ServerProcess {
  public:
   explicit ServerProcess(const std::string& data_dir) {
+    // Everything the child needs is prepared before fork(): between fork and
+    // exec only async-signal-safe calls (the test process has threads).
+    const std::string data_flag = "--data_dir=" + data_dir;
     int fds[2];
-    if (pipe(fds) != 0) return;
+    if (pipe2(fds, O_CLOEXEC) != 0) return;  // dup2 below clears CLOEXEC on stdout
     pid_ = fork();
     if (pid_ == 0) {
       prctl(PR_SET_PDEATHSIG, SIGKILL);  // never outlive a crashed test
       dup2(fds[1], STDOUT_FILENO);
       close(fds[0]);
       close(fds[1]);
-      const std::string data_flag = "--data_dir=" + data_dir;
       execl(EXCITE_SERVER_BINARY, EXCITE_SERVER_BINARY, "--listen=127.0.0.1:0",
             data_flag.c_str(), "--log_level=warning", static_cast<char*>(nullptr));
       _exit(127);
