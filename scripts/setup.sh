@@ -10,6 +10,11 @@ PACKAGES=(
   libeigen3-dev coinor-libipopt-dev libabsl-dev liblbfgspp-dev libsqlite3-dev
   libmujoco-dev libqhull-dev  # Debian's mujoco CMake package names qhull's headers
   libgtest-dev libgmock-dev libbenchmark-dev
+  libgl-dev libopengl-dev  # mujoco's CMake package finds OpenGL (only recommended)
+  # Python client and its tests (Debian's /usr/bin/python3; nothing from PyPI)
+  python3-grpcio python3-protobuf python3-numpy python3-pytest python3-yaml
+  # container smoke test (tests/container): podman with runc, a local base image
+  podman runc netavark aardvark-dns debootstrap
 )
 
 missing=()

@@ -131,8 +131,9 @@ def main(argv=None):
                         mean = session.predict(z_eval).mean
                         rmse = float(np.sqrt(np.mean(np.sum((mean - truth) ** 2, axis=1))))
                         history.append((samples, rmse))
-                        print(f"samples {samples:4d}  rmse {rmse:.4f}  x {x[0]:+.2f}  "
-                              f"plan_ms {plan_ms[-1] if plan_ms else 0:.0f}", flush=True)
+                        print(f"samples {samples:4d}  rmse {rmse:.4f}  x {x[0]:+.2f}"
+                              + (f"  plan_ms {plan_ms[-1]:.0f}" if plan_ms else ""),
+                              flush=True)
         finally:
             if not args.keep:
                 session.delete()

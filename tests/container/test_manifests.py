@@ -1,0 +1,204 @@
+"""Static checks of deploy/: the Containerfile, the compose file and the Kubernetes
+manifests agree with each other and with the binaries' flags (no cluster needed).
+
+Run: /usr/bin/python3 -m pytest tests/container/test_manifests.py (ctest label deploy).
+"""
+
+import pathlib
+import re
+
+import pytest
+import yaml
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+DEPLOY = REPO / "deploy"
+K8S = DEPLOY / "k8s"
+CONTAINERFILE = (DEPLOY / "Containerfile").read_text()
+PORT = 50051
+UID = 10001
+DATA_DIR = "/var/lib/excite"
+CONFIG_DIR = "/usr/local/share/excite/configs/"
+
+
+def server_flags():
+    """Names of excite-server's flags, from server/main.cc."""
+    names = re.findall(r"ABSL_FLAG\(\s*[\w:]+\s*,\s*(\w+)\s*,", (REPO / "server" / "main.cc").read_text())
+    assert "listen" in names and "data_dir" in names, names
+    return set(names)
+
+
+def image_env_flags():
+    """The flags the image's command reads from FLAGS_<name> (--tryfromenv)."""
+    match = re.search(r'CMD \["excite-server", "--tryfromenv=([\w,]+)"\]', CONTAINERFILE)
+    assert match, "the image's CMD must run excite-server --tryfromenv=..."
+    return set(match.group(1).split(","))
+
+
+def k8s_documents():
+    kustomization = yaml.safe_load((K8S / "kustomization.yaml").read_text())
+    docs = []
+    for name in kustomization["resources"]:
+        docs += [d for d in yaml.safe_load_all((K8S / name).read_text()) if d]
+    return kustomization, docs
+
+
+def one(docs, kind, name=None):
+    found = [d for d in docs if d["kind"] == kind and (name is None or d["metadata"]["name"] == name)]
+    assert len(found) == 1, f"want one {kind} {name or ''}, found {len(found)}"
+    return found[0]
+
+
+def flag_value(args, flag):
+    for a in args:
+        if a.startswith(f"--{flag}="):
+            return a.split("=", 1)[1]
+    return None
+
+
+# --- Containerfile -----------------------------------------------------------------
+
+def test_containerfile_shape():
+    assert re.search(r"^ARG BASE=debian:bookworm-slim$", CONTAINERFILE, re.M)
+    assert re.search(r"^FROM \$\{BASE\} AS build$", CONTAINERFILE, re.M)
+    assert re.search(r"^FROM \$\{BASE\} AS runtime$", CONTAINERFILE, re.M)
+    runtime = CONTAINERFILE.split("AS runtime", 1)[1]
+    assert re.search(rf"^USER {UID}:{UID}$", runtime, re.M)
+    assert re.search(rf"^EXPOSE {PORT}$", runtime, re.M)
+    assert f'VOLUME ["{DATA_DIR}"]' in runtime
+    assert f"FLAGS_data_dir={DATA_DIR}" in runtime
+    assert f"FLAGS_listen=0.0.0.0:{PORT}" in runtime
+    assert re.search(rf'HEALTHCHECK .*\n\s+CMD \["excite-health", "--server=127.0.0.1:{PORT}"', runtime)
+    # The runtime stage installs packages, never builds: no -dev packages there.
+    assert "-dev" not in runtime and "cmake" not in runtime
+    assert "-DEXCITE_BUILD_TESTS=OFF" in CONTAINERFILE and "-DEXCITE_BUILD_BENCH=OFF" in CONTAINERFILE
+
+
+def test_every_server_flag_can_come_from_the_environment():
+    missing = server_flags() - image_env_flags()
+    assert not missing, f"add these to the Containerfile's --tryfromenv list: {sorted(missing)}"
+
+
+def test_build_context_leaves_out_build_trees():
+    ignore = (REPO / ".dockerignore").read_text().split("\n")
+    assert "*" in ignore  # allow-list: everything else (build*/, .git, results/) stays out
+    copied = set(re.findall(r"^COPY (?!--from)(\S+)", CONTAINERFILE, re.M))
+    for path in copied:
+        assert f"!{path}" in ignore or f"!{path}/" in ignore, f"{path} copied but ignored"
+
+
+# --- compose ------------------------------------------------------------------------
+
+def test_compose_stack():
+    compose = yaml.safe_load((DEPLOY / "compose.yaml").read_text())
+    services = compose["services"]
+    server = services["server"]
+    assert server["build"]["dockerfile"] == "deploy/Containerfile"
+    assert (DEPLOY / server["build"]["context"] / server["build"]["dockerfile"]).is_file()
+    assert f"excite-data:{DATA_DIR}" in server["volumes"]
+    assert "excite-data" in compose["volumes"]
+    assert server["healthcheck"]["test"][1] == "excite-health"
+    assert server["read_only"] is True
+    assert any(p.endswith(f":{PORT}") for p in server["ports"])
+    assert set(server.get("environment", {})) <= {f"FLAGS_{f}" for f in image_env_flags()}
+
+    plants = {name: s for name, s in services.items() if name != "server"}
+    assert plants, "at least one plant client"
+    for name, plant in plants.items():
+        command = plant["command"]
+        assert command[0] == "excite-sim", name
+        assert flag_value(command, "server") == f"server:{PORT}", name
+        config = flag_value(command, "config")
+        assert config.startswith(CONFIG_DIR), name
+        assert (REPO / "sim" / "configs" / config[len(CONFIG_DIR):]).is_file(), config
+        assert plant["image"] == server["image"], name
+        assert "server" in plant["depends_on"], name
+        summary = flag_value(command, "summary")
+        assert any(v.split(":")[1] == str(pathlib.PurePath(summary).parent)
+                   for v in plant["volumes"]), f"{name}: summary not on a volume"
+    summaries = [flag_value(p["command"], "summary") for p in plants.values()]
+    assert len(set(summaries)) == len(summaries), "plants overwrite each other's summary"
+
+
+# --- Kubernetes ---------------------------------------------------------------------
+
+def test_kustomization_lists_existing_files_and_names_the_image():
+    kustomization, docs = k8s_documents()
+    assert kustomization["kind"] == "Kustomization"
+    image_names = {i["name"] for i in kustomization["images"]}
+    for doc in docs:
+        pod = doc["spec"].get("template", {}).get("spec")
+        if pod:
+            for c in pod.get("containers", []) + pod.get("initContainers", []):
+                assert c["image"] in image_names, (doc["metadata"]["name"], c["image"])
+
+
+def test_statefulset():
+    _, docs = k8s_documents()
+    sts = one(docs, "StatefulSet")
+    spec = sts["spec"]
+    assert spec["replicas"] == 1  # see docs/deployment.md, "Several replicas"
+    pod = spec["template"]["spec"]
+    labels = spec["template"]["metadata"]["labels"]
+    assert spec["selector"]["matchLabels"].items() <= labels.items()
+
+    security = pod["securityContext"]
+    assert security["runAsNonRoot"] is True
+    assert security["runAsUser"] == UID and security["fsGroup"] == UID
+
+    (container,) = pod["containers"]
+    assert container["securityContext"]["readOnlyRootFilesystem"] is True
+    assert container["securityContext"]["allowPrivilegeEscalation"] is False
+    assert container["securityContext"]["capabilities"]["drop"] == ["ALL"]
+    assert {"name": "grpc", "containerPort": PORT, "protocol": "TCP"} in container["ports"]
+    for probe in ("livenessProbe", "readinessProbe", "startupProbe"):
+        assert container[probe]["grpc"]["port"] == PORT, probe
+    for kind in ("requests", "limits"):
+        assert {"cpu", "memory"} <= set(container["resources"][kind]), kind
+
+    env = {e["name"]: e["value"] for e in container["env"]}
+    assert {n[len("FLAGS_"):] for n in env} <= image_env_flags()
+    assert env["FLAGS_data_dir"] == DATA_DIR and env["FLAGS_listen"].endswith(f":{PORT}")
+    mounts = {m["mountPath"]: m["name"] for m in container["volumeMounts"]}
+    (claim,) = spec["volumeClaimTemplates"]
+    assert mounts[DATA_DIR] == claim["metadata"]["name"]
+    assert "/tmp" in mounts  # writable scratch next to the read-only root
+    assert pod["terminationGracePeriodSeconds"] > 5  # the server drains for 5 s
+
+
+def test_services_select_the_server_pods():
+    _, docs = k8s_documents()
+    sts = one(docs, "StatefulSet")
+    labels = sts["spec"]["template"]["metadata"]["labels"]
+    headless = one(docs, "Service", sts["spec"]["serviceName"])
+    assert headless["spec"]["clusterIP"] == "None"
+    for service in (headless, one(docs, "Service", "excite")):
+        assert service["spec"]["selector"].items() <= labels.items()
+        (port,) = service["spec"]["ports"]
+        assert port["port"] == PORT and port["targetPort"] == "grpc"
+
+
+def test_plant_job():
+    _, docs = k8s_documents()
+    job = one(docs, "Job")
+    pod = job["spec"]["template"]["spec"]
+    assert pod["restartPolicy"] == "Never"
+    assert pod["securityContext"]["runAsNonRoot"] is True
+    (sim,) = pod["containers"]
+    assert sim["command"][0] == "excite-sim"
+    host, port = flag_value(sim["command"], "server").split(":")
+    one(docs, "Service", host)
+    assert int(port) == PORT
+    config = flag_value(sim["command"], "config")
+    assert (REPO / "sim" / "configs" / config[len(CONFIG_DIR):]).is_file()
+    (wait,) = pod["initContainers"]
+    assert wait["command"][0] == "excite-health"
+    assert flag_value(wait["command"], "server") == f"{host}:{PORT}"
+    for c in (sim, wait):
+        assert c["securityContext"]["readOnlyRootFilesystem"] is True
+        assert {"cpu", "memory"} <= set(c["resources"]["limits"])
+
+
+@pytest.mark.parametrize("path", sorted(p.name for p in K8S.glob("*.yaml")))
+def test_every_manifest_is_listed_in_the_kustomization(path):
+    kustomization, _ = k8s_documents()
+    assert path == "kustomization.yaml" or path in kustomization["resources"]

@@ -1,0 +1,242 @@
+"""The Python client (client/python) against a real excite-server process."""
+
+import os
+import pathlib
+import re
+import subprocess
+import sys
+
+import grpc
+import numpy as np
+import pytest
+
+import excite
+from conftest import REPO, ServerProcess
+
+PENDULUM = REPO / "sim" / "configs" / "pendulum.textproto"
+
+# A linear plant x_{k+1} = A x_k + B u_k for tests that need a learnable model.
+A = np.array([[1.0, 0.1], [-0.1, 0.95]])
+B = np.array([[0.0], [0.1]])
+NOISE = 1e-4
+
+
+def linear_config(**overrides):
+    config = {
+        "state_dim": 2,
+        "input_dim": 1,
+        "input_bounds": [[-1.0, 1.0]],
+        "state_bounds": [[-1.0, 1.0], [-1.0, 1.0]],
+        "noise": {"variance": NOISE, "fit": True},
+        "kernel": {"fit": True},
+        "target": "delta",
+        "strategy": "rec",
+        "horizon": 5,
+        "seed": 3,
+    }
+    config.update(overrides)
+    return config
+
+
+def linear_data(n, seed):
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-1, 1, size=(n, 2))
+    u = rng.uniform(-1, 1, size=(n, 1))
+    x_next = x @ A.T + u @ B.T
+    noise = lambda: rng.normal(0, np.sqrt(NOISE), size=(n, 2))  # noqa: E731
+    return x + noise(), u, x_next + noise(), x, x_next
+
+
+def test_health_is_serving(client):
+    assert client.health() == "SERVING"
+
+
+def test_session_lifecycle(client):
+    created = client.create_session(linear_config(), session_id="py-life")
+    assert created.name == "sessions/py-life"
+    assert (created.state_dim, created.input_dim) == (2, 1)
+    assert created.sample_count == 0 and created.last_sequence == -1
+    assert created.config.strategy == excite.config_pb.STRATEGY_REC
+    assert created.config.target == excite.config_pb.TARGET_DELTA
+    bounds = created.config.input_bounds[0]
+    assert (bounds.lower, bounds.upper) == (-1.0, 1.0)
+
+    fetched = client.session("py-life")
+    assert fetched.config == created.config
+
+    client.create_session(linear_config(), session_id="py-life-2")
+    names = [s.name for s in client.list_sessions(page_size=1)]  # pages of one
+    assert {"sessions/py-life", "sessions/py-life-2"} <= set(names)
+    assert len(names) == len(set(names))
+
+    with pytest.raises(grpc.RpcError) as error:
+        client.create_session(linear_config(), session_id="py-life")
+    assert error.value.code() == grpc.StatusCode.ALREADY_EXISTS
+
+    created.delete()
+    client.delete_session("sessions/py-life-2")
+    with pytest.raises(grpc.RpcError) as error:
+        client.session("py-life")
+    assert error.value.code() == grpc.StatusCode.NOT_FOUND
+
+
+def test_config_from_textproto_file_string_and_errors(client):
+    from_file = client.create_session(PENDULUM)  # a SimConfig file: its session
+    assert from_file.config.horizon == 15
+    assert from_file.config.noise.variance == pytest.approx(0.05)
+    assert re.fullmatch(r"sessions/[a-z0-9-]+", from_file.name)
+    from_file.delete()
+
+    text = """
+        state_dim: 1 input_dim: 1
+        input_bounds { lower: -2 upper: 2 }
+        noise { variance: 0.01 }
+        kernel { fit: true }
+        strategy: STRATEGY_PA horizon: 4
+    """
+    from_text = client.create_session(text)
+    assert from_text.config.strategy == excite.config_pb.STRATEGY_PA
+    from_text.delete()
+
+    with pytest.raises(ValueError):
+        excite.session_config("state_dim: oops")
+    with pytest.raises(ValueError):
+        excite.session_config({"no_such_field": 1})
+    with pytest.raises(grpc.RpcError) as error:  # the server validates values
+        client.create_session(linear_config(state_dim=0))
+    assert error.value.code() == grpc.StatusCode.INVALID_ARGUMENT
+
+
+def test_add_data_numbers_sequences_and_ignores_duplicates(client):
+    session = client.create_session(linear_config())
+    x, u, x_next, _, _ = linear_data(10, seed=1)
+    reply = session.add(x, u, x_next, batch_size=3)  # 4 messages in one stream
+    assert (reply.stored, reply.duplicates, reply.sample_count) == (10, 0, 10)
+
+    again = session.add(x, u, x_next, sequences=np.arange(10))  # a retried batch
+    assert (again.stored, again.duplicates, again.sample_count) == (0, 10, 10)
+
+    more = session.add(x[:2], u[:2], x_next[:2])  # numbered 10, 11
+    assert (more.stored, more.sample_count) == (2, 12)
+    assert session.refresh().last_sequence == 11
+
+    with pytest.raises(ValueError):
+        session.add(x, u[:3], x_next)  # row counts differ
+    bad = np.array(x)
+    bad[0, 0] = np.nan
+    with pytest.raises(grpc.RpcError) as error:
+        session.add(bad, u, x_next, sequences=np.arange(100, 110))
+    assert error.value.code() == grpc.StatusCode.INVALID_ARGUMENT
+    session.delete()
+
+
+def test_predict_learns_a_linear_plant(client):
+    session = client.create_session(linear_config())
+    with pytest.raises(grpc.RpcError) as error:  # no data, no model
+        session.predict(np.zeros((1, 3)))
+    assert error.value.code() == grpc.StatusCode.FAILED_PRECONDITION
+
+    x, u, x_next, _, _ = linear_data(60, seed=2)
+    assert session.add(x, u, x_next).sample_count == 60
+    _, _, _, x_test, truth = linear_data(50, seed=99)
+    u_test = linear_data(50, seed=98)[1]
+    truth = x_test @ A.T + u_test @ B.T
+
+    prediction = session.predict(np.hstack([x_test, u_test]))
+    assert prediction.mean.shape == (50, 2) and prediction.variance.shape == (50, 2)
+    assert np.all(prediction.variance > 0)
+    rmse = np.sqrt(np.mean(np.sum((prediction.mean - truth) ** 2, axis=1)))
+    # "The state stays where it is" is off by |x_next - x|, about 0.1 here.
+    baseline = np.sqrt(np.mean(np.sum((x_test - truth) ** 2, axis=1)))
+    assert rmse < 0.03 and rmse < 0.3 * baseline, (rmse, baseline)
+    assert np.all(prediction.variance < 0.01)
+
+    same = session.predict(states=x_test, inputs=u_test)
+    np.testing.assert_allclose(same.mean, prediction.mean)
+    noisy = session.predict(np.hstack([x_test, u_test]), include_noise=True)
+    assert np.all(noisy.variance > prediction.variance)
+    assert prediction.model_version == session.refresh().model_version
+
+    with pytest.raises(ValueError):
+        session.predict(np.zeros((4, 2)))  # z needs state_dim + input_dim columns
+    with pytest.raises(grpc.RpcError) as error:  # the server checks shapes too
+        client.stub.Predict(excite.pb.PredictRequest(session=session.name, inputs=[0.0] * 4))
+    assert error.value.code() == grpc.StatusCode.INVALID_ARGUMENT
+    session.delete()
+
+
+@pytest.mark.parametrize("strategy", ["rec", "pa"])
+def test_plan_respects_bounds_and_strategy(client, strategy):
+    session = client.create_session(linear_config(strategy=strategy, horizon=4))
+    with pytest.raises(grpc.RpcError) as error:
+        session.plan([0.0, 0.0])
+    assert error.value.code() == grpc.StatusCode.FAILED_PRECONDITION
+    x, u, x_next, _, _ = linear_data(20, seed=4)
+    session.add(x, u, x_next)
+
+    state = np.array([0.2, -0.1])
+    plan = session.plan(state)
+    assert plan.inputs.shape == (4, 1)
+    assert plan.predicted_states.shape == (4, 2) and plan.predicted_variances.shape == (4, 2)
+    assert np.all(np.abs(plan.inputs) <= 1.0 + 1e-9)
+    np.testing.assert_allclose(plan.predicted_states[0], state)
+    assert np.all(plan.predicted_variances > 0)
+    assert plan.apply_count == (1 if strategy == "rec" else 4)
+    assert plan.to_apply.shape == (plan.apply_count, 1)
+    assert plan.solver_status.startswith("SOLVER_STATUS_")
+    assert plan.solver_status != "SOLVER_STATUS_UNSPECIFIED"
+    assert np.isfinite(plan.objective) and plan.wall_time_ms > 0
+    with pytest.raises(grpc.RpcError) as error:
+        client.stub.PlanInputs(excite.pb.PlanInputsRequest(session=session.name, state=[1.0]))
+    assert error.value.code() == grpc.StatusCode.INVALID_ARGUMENT
+    session.delete()
+
+
+def test_stream_sends_transitions_as_they_come(client):
+    session = client.create_session(linear_config())
+    x, u, x_next, _, _ = linear_data(10, seed=5)
+    with session.stream(batch_size=4) as stream:
+        for i in range(10):
+            stream.send(x[i], u[i], x_next[i])
+    assert (stream.result.stored, stream.result.sample_count) == (10, 10)
+    assert session.refresh().sample_count == 10 and session.last_sequence == 9
+    session.delete()
+
+
+def test_sessions_survive_a_restart(tmp_path):
+    first = ServerProcess(tmp_path).start()
+    with excite.Client(first.address) as c:
+        session = c.create_session(linear_config(), session_id="durable")
+        x, u, x_next, _, _ = linear_data(8, seed=6)
+        session.add(x, u, x_next)
+    assert first.stop() == 0
+
+    second = ServerProcess(tmp_path).start()
+    try:
+        with excite.Client(second.address) as c:
+            again = c.session("durable")
+            assert again.sample_count == 8 and again.last_sequence == 7
+            assert again.predict(np.zeros((2, 3))).mean.shape == (2, 2)
+    finally:
+        assert second.stop() == 0
+
+
+def test_duffing_example_explores_and_reports_rmse(server):
+    example = REPO / "client" / "python" / "examples" / "duffing.py"
+    result = subprocess.run(
+        [sys.executable, str(example), f"--server={server.address}", "--samples=30",
+         "--every=10", "--horizon=5", "--points=200"],
+        capture_output=True, text=True, timeout=300,
+        env=dict(os.environ, PYTHONPATH=str(REPO / "client" / "python")))
+    assert result.returncode == 0, result.stdout + result.stderr
+    rmse = [float(v) for v in re.findall(r"^samples +\d+ +rmse ([0-9.]+)", result.stdout, re.M)]
+    assert len(rmse) == 3, result.stdout
+    assert all(np.isfinite(rmse)) and rmse[-1] < rmse[0], result.stdout
+    assert re.search(r"^final rmse [0-9.]+ after 30 samples", result.stdout, re.M)
+
+
+def test_stubs_are_generated_from_the_current_protos():
+    stamp = pathlib.Path(excite.codegen.STAMP).read_text().strip()
+    assert stamp == excite.codegen._digest(excite.codegen.proto_dir())
+    from excite.v1 import exploration_service_pb2_grpc
+    assert hasattr(exploration_service_pb2_grpc, "ExplorationServiceStub")
