@@ -240,3 +240,66 @@ def test_stubs_are_generated_from_the_current_protos():
     assert stamp == excite.codegen._digest(excite.codegen.proto_dir())
     from excite.v1 import exploration_service_pb2_grpc
     assert hasattr(exploration_service_pb2_grpc, "ExplorationServiceStub")
+
+
+def test_session_calls_carry_the_routing_header():
+    """Every call about a session names it in x-excite-session (for consistent-hash
+    routing across replicas), checked against an in-process fake service."""
+    from concurrent import futures
+
+    from excite.v1 import exploration_service_pb2_grpc as pb_grpc
+
+    seen = []
+
+    class Fake(pb_grpc.ExplorationServiceServicer):
+        def _record(self, method, context):
+            seen.append((method, dict(context.invocation_metadata()).get("x-excite-session")))
+
+        def CreateSession(self, request, context):
+            self._record("CreateSession", context)
+            return excite.pb.Session(name="sessions/" + request.session_id,
+                                     config=request.config, last_sequence=-1)
+
+        def GetSession(self, request, context):
+            self._record("GetSession", context)
+            return excite.pb.Session(name=request.name, config=excite.session_config(
+                linear_config()), last_sequence=-1)
+
+        def AddData(self, request_iterator, context):
+            self._record("AddData", context)
+            n = sum(len(r.transitions) for r in request_iterator)
+            return excite.pb.AddDataResponse(stored=n, sample_count=n)
+
+        def Predict(self, request, context):
+            self._record("Predict", context)
+            return excite.pb.PredictResponse(mean=[0.0, 0.0], variance=[1.0, 1.0])
+
+        def PlanInputs(self, request, context):
+            self._record("PlanInputs", context)
+            return excite.pb.PlanInputsResponse(inputs=[0.0], predicted_states=[0.0, 0.0],
+                                                predicted_variances=[1.0, 1.0], horizon=1,
+                                                apply_count=1)
+
+        def DeleteSession(self, request, context):
+            self._record("DeleteSession", context)
+            return excite.pb.DeleteSessionResponse()
+
+    server = grpc.server(futures.ThreadPoolExecutor(max_workers=2))
+    pb_grpc.add_ExplorationServiceServicer_to_server(Fake(), server)
+    port = server.add_insecure_port("127.0.0.1:0")
+    server.start()
+    try:
+        with excite.Client(f"127.0.0.1:{port}") as c:
+            s = c.create_session(linear_config(), session_id="routed")
+            s.refresh()
+            s.add([0.0, 0.0], [0.0], [0.0, 0.0])
+            with s.stream() as stream:
+                stream.send([0.0, 0.0], [0.0], [0.0, 0.0])
+            s.predict(np.zeros(3))
+            s.plan([0.0, 0.0])
+            c.session("sessions/routed").delete()
+    finally:
+        server.stop(None)
+    assert [m for m, _ in seen] == ["CreateSession", "GetSession", "AddData", "AddData",
+                                    "Predict", "PlanInputs", "GetSession", "DeleteSession"]
+    assert all(header == "routed" for _, header in seen), seen

@@ -25,6 +25,14 @@ from excite.v1 import sim_config_pb2 as sim_pb
 _ENUM_PREFIX = {"strategy": "STRATEGY_", "target": "TARGET_"}
 _INTERVAL_FIELDS = ("input_bounds", "state_bounds")
 _SERVING_STATUS = {0: "UNKNOWN", 1: "SERVING", 2: "NOT_SERVING", 3: "SERVICE_UNKNOWN"}
+# Every call about one session carries its id in this header, so that a load
+# balancer can route all of a session's calls to the replica that holds it
+# (consistent hash on the header; see docs/deployment.md, "Several replicas").
+SESSION_HEADER = "x-excite-session"
+
+
+def _session_metadata(name_or_id):
+    return ((SESSION_HEADER, name_or_id.split("/", 1)[-1]),) if name_or_id else None
 
 
 def _friendly_dict(config):
@@ -182,12 +190,14 @@ class Client:
     def create_session(self, config, session_id=""):
         """Creates a session (see :func:`session_config` for `config`); returns it."""
         request = pb.CreateSessionRequest(session_id=session_id, config=session_config(config))
-        return Session(self, self.stub.CreateSession(request, timeout=self.timeout_s))
+        return Session(self, self.stub.CreateSession(
+            request, timeout=self.timeout_s, metadata=_session_metadata(session_id)))
 
     def session(self, name):
         """The session "sessions/{id}" (or just "{id}"); NOT_FOUND if there is none."""
         request = pb.GetSessionRequest(name=_full_name(name))
-        return Session(self, self.stub.GetSession(request, timeout=self.timeout_s))
+        return Session(self, self.stub.GetSession(
+            request, timeout=self.timeout_s, metadata=_session_metadata(name)))
 
     def list_sessions(self, page_size=0):
         """Iterates over every session, fetching pages of `page_size` (0: server's
@@ -206,7 +216,8 @@ class Client:
 
     def delete_session(self, name):
         self.stub.DeleteSession(
-            pb.DeleteSessionRequest(name=_full_name(name)), timeout=self.timeout_s
+            pb.DeleteSessionRequest(name=_full_name(name)), timeout=self.timeout_s,
+            metadata=_session_metadata(name),
         )
 
 
@@ -235,6 +246,7 @@ class Session:
         self.outputs = info.outputs
         # Sequence numbers given to transitions added without explicit ones.
         self.next_sequence = info.last_sequence + 1
+        self.metadata = _session_metadata(self.id)  # see SESSION_HEADER
 
     def __repr__(self):
         return (f"Session({self.name!r}, state_dim={self.state_dim}, "
@@ -243,7 +255,8 @@ class Session:
     def refresh(self):
         """Re-reads the session from the server; returns self."""
         self._set(self.client.stub.GetSession(
-            pb.GetSessionRequest(name=self.name), timeout=self.client.timeout_s))
+            pb.GetSessionRequest(name=self.name), timeout=self.client.timeout_s,
+            metadata=self.metadata))
         return self
 
     def delete(self):
@@ -285,7 +298,8 @@ class Session:
             pb.AddDataRequest(session=self.name, transitions=transitions[i:i + batch_size])
             for i in range(0, max(len(transitions), 1), batch_size)
         ]
-        reply = self.client.stub.AddData(iter(requests), timeout=self.client.timeout_s)
+        reply = self.client.stub.AddData(iter(requests), timeout=self.client.timeout_s,
+                                         metadata=self.metadata)
         self.sample_count = reply.sample_count
         self.model_version = reply.model_version
         return reply
@@ -319,6 +333,7 @@ class Session:
             pb.PredictRequest(session=self.name, inputs=z.reshape(-1),
                               include_noise=include_noise),
             timeout=self.client.timeout_s,
+            metadata=self.metadata,
         )
         shape = (len(z), self.state_dim)
         return Prediction(
@@ -335,6 +350,7 @@ class Session:
         reply = self.client.stub.PlanInputs(
             pb.PlanInputsRequest(session=self.name, state=x[0]),
             timeout=self.client.plan_timeout_s,
+            metadata=self.metadata,
         )
         m = reply.horizon
         return Plan(
@@ -382,7 +398,7 @@ class TransitionStream:
 
     def __enter__(self):
         self._future = self.session.client.stub.AddData.future(
-            self._requests(), timeout=self.timeout_s)
+            self._requests(), timeout=self.timeout_s, metadata=self.session.metadata)
         return self
 
     def send(self, state, input, next_state, *, sequence=None, timestamp=None):
