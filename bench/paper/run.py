@@ -1,0 +1,807 @@
+#!/usr/bin/python3
+"""Reproduces the paper's Table and Figure (Section 6) with real processes.
+
+One excite-server for the whole run (free loopback port, temporary data directory);
+every trial is one excite-sim process talking to it over gRPC, --jobs of them at a
+time. Seeds are the trial index (+ --seed_offset); the evaluation set is the
+system config's, the same for every trial and strategy.
+
+  bench/paper/run.py                   full mode (trial counts: benchmark.json)
+  bench/paper/run.py --quick           small sample budgets, 1-2 trials (< 10 min)
+  bench/paper/run.py --ci              pendulum + one MuJoCo system, tiny budgets,
+                                       then checks the outputs (exit 1 on a problem)
+  bench/paper/run.py --report_only DIR re-aggregate an existing results directory
+
+Systems without a config and strategies excite-sim does not know are reported and
+skipped. Outputs (default results/paper/<timestamp>/): results.csv, trials.csv,
+table.md, summary.json, rmse_<system>.png, rmse_all.png, coverage.png, server.log and
+trials/<system>/<strategy>/trial<k>.{json,log}. Standard library + matplotlib only;
+run it with Debian's /usr/bin/python3.
+"""
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.abspath(os.path.join(HERE, "..", ".."))
+sys.path.insert(0, HERE)
+
+import aggregate  # noqa: E402
+import check  # noqa: E402
+
+DEFAULT_CONFIG = os.path.join(HERE, "benchmark.json")
+DEFAULT_SERVER = os.path.join(REPO, "build", "release", "server", "excite-server")
+DEFAULT_SIM = os.path.join(REPO, "build", "release", "sim", "excite-sim")
+PROGRESS_RE = re.compile(rb"samples (\d+)")
+
+
+def log(msg=""):
+    Progress.clear()
+    print(msg, flush=True)
+
+
+def fmt_duration(seconds):
+    if seconds is None:
+        return "?"
+    seconds = int(round(seconds))
+    if seconds < 60:
+        return f"{seconds}s"
+    if seconds < 3600:
+        return f"{seconds // 60}m{seconds % 60:02d}s"
+    return f"{seconds // 3600}h{(seconds % 3600) // 60:02d}m"
+
+
+class Progress:
+    """A status line: rewritten in place on a terminal, printed every 30 s
+    otherwise (ctest, CI logs)."""
+    tty = sys.stdout.isatty()
+    shown = False
+    last_print = 0.0
+
+    @classmethod
+    def clear(cls):
+        if cls.tty and cls.shown:
+            sys.stdout.write("\r\033[K")
+            cls.shown = False
+
+    @classmethod
+    def show(cls, text):
+        if cls.tty:
+            width = shutil.get_terminal_size((120, 20)).columns - 1
+            sys.stdout.write("\r\033[K" + text[:width])
+            sys.stdout.flush()
+            cls.shown = True
+        elif time.monotonic() - cls.last_print >= 30:
+            print(text, flush=True)
+            cls.last_print = time.monotonic()
+
+
+# --------------------------------------------------------------------------- plan
+
+
+class Trial:
+    def __init__(self, system, strategy, index, seed, samples, config, out_dir):
+        self.system = system
+        self.strategy = strategy
+        self.index = index
+        self.seed = seed
+        self.samples = samples  # None: the config's
+        self.config = config
+        d = os.path.join(out_dir, "trials", system, strategy)
+        self.summary_path = os.path.join(d, f"trial{index}.json")
+        self.log_path = os.path.join(d, f"trial{index}.log")
+        self.status = "queued"  # queued, running, ok, failed, skipped
+        self.error = ""
+        self.wall = None
+        self.proc = None
+        self.start = None
+        self.result = None
+
+    @property
+    def pair(self):
+        return (self.system, self.strategy)
+
+    def name(self):
+        return f"{self.system}/{self.strategy}#{self.index}"
+
+
+def load_config(path):
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def trial_count(spec, strategy):
+    if isinstance(spec, dict):
+        return int(spec.get(strategy, spec.get("default", 1)))
+    return int(spec)
+
+
+def config_samples(config_path):
+    """The `samples:` of a SimConfig textproto (top level), or None."""
+    try:
+        with open(config_path, encoding="utf-8") as f:
+            for line in f:
+                m = re.match(r"^samples:\s*(\d+)", line)
+                if m:
+                    return int(m.group(1))
+    except OSError:
+        pass
+    return None
+
+
+def split_list(values):
+    out = []
+    for v in values or []:
+        out += [x for x in re.split(r"[,\s]+", v) if x]
+    return out
+
+
+def preflight(sim_bin, pairs, config_paths):
+    """Which (system, strategy) pairs excite-sim accepts: it is run against an
+    address nobody listens on with connect_timeout_s=0, so it parses the config and
+    the strategy, validates, builds the plant, then fails to connect. Any other
+    failure is the reason to skip the pair. Returns {pair: '' or reason}."""
+    procs = {}
+    for system, strategy in pairs:
+        cmd = [sim_bin, "--server=127.0.0.1:1", "--connect_timeout_s=0",
+               f"--config={config_paths[system]}", f"--strategy={strategy}"]
+        procs[(system, strategy)] = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, cwd=REPO)
+    reasons = {}
+    for pair, p in procs.items():
+        out, _ = p.communicate(timeout=60)
+        text = out.decode("utf-8", "replace").strip()
+        if "cannot reach excite-server" in text:
+            reasons[pair] = ""
+        else:
+            lines = [l for l in text.splitlines() if l.strip()]
+            reasons[pair] = lines[-1] if lines else f"excite-sim exit code {p.returncode}"
+    return reasons
+
+
+def condense_skipped(skipped):
+    """[(what, reason)]: one line per strategy when the same reason (a strategy
+    excite-sim does not know) holds for several systems."""
+    by_key = {}
+    for system, strategy, reason in skipped:
+        by_key.setdefault((strategy, reason), []).append(system)
+    out = []
+    for (strategy, reason), systems in by_key.items():
+        if strategy == "*":
+            out += [(s, reason) for s in systems]
+        elif len(systems) == 1:
+            out.append((f"{systems[0]}/{strategy}", reason))
+        else:
+            out.append((f"{strategy} on {', '.join(systems)}", reason))
+    return out
+
+
+def select_systems(cfg, args, mode):
+    names = list(cfg["systems"])
+    if args.systems:
+        chosen = split_list(args.systems)
+        unknown = [s for s in chosen if s not in cfg["systems"]]
+        if unknown:
+            sys.exit(f"run.py: unknown system(s) {unknown}; known: {names}")
+        return chosen
+    if mode == "ci":
+        chosen = list(cfg["ci"]["systems"])
+        for s in cfg["ci"].get("mujoco_one_of", []):
+            path = os.path.join(REPO, cfg["systems"][s]["config"])
+            if os.path.isfile(path):
+                chosen.append(s)
+                break
+        return chosen
+    return names
+
+
+def make_plan(cfg, args, mode, out_dir):
+    """Returns (trials, skipped, planned, samples_of) where skipped is
+    [(system, strategy or '*', reason)]."""
+    systems = select_systems(cfg, args, mode)
+    strategies = split_list(args.strategies) or list(cfg["strategies"])
+    skipped = []
+    config_paths = {}
+    for system in systems:
+        path = os.path.join(REPO, cfg["systems"][system]["config"])
+        if os.path.isfile(path):
+            config_paths[system] = path
+        else:
+            skipped.append((system, "*", f"no config {cfg['systems'][system]['config']}"
+                                          " (system not implemented yet)"))
+    pairs = [(s, st) for s in systems if s in config_paths for st in strategies]
+    reasons = preflight(args.sim_bin, pairs, config_paths) if pairs else {}
+    available = []
+    for pair in pairs:
+        if reasons[pair]:
+            skipped.append((pair[0], pair[1], reasons[pair]))
+        else:
+            available.append(pair)
+    trials_by_pair = {}
+    samples_of = {}
+    planned = {}
+    for system, strategy in available:
+        block = cfg["systems"][system][mode]
+        n = args.trials if args.trials else trial_count(block["trials"], strategy)
+        samples = args.samples or block.get("samples")
+        samples_of[system] = samples or config_samples(config_paths[system])
+        planned[(system, strategy)] = n
+        trials_by_pair[(system, strategy)] = [
+            Trial(system, strategy, k, args.seed_offset + k, samples,
+                  config_paths[system], out_dir) for k in range(n)]
+    # Trial-major order: trial 0 of every pair first (failures show early, and an
+    # interrupted run has every pair), heaviest systems first within a round.
+    trials = []
+    rounds = max((len(v) for v in trials_by_pair.values()), default=0)
+    for k in range(rounds):
+        for pair, ts in trials_by_pair.items():
+            if k < len(ts):
+                trials.append(ts[k])
+    return trials, skipped, planned, samples_of, systems, strategies
+
+
+# ------------------------------------------------------------------------- server
+
+
+class Server:
+    def __init__(self, binary, out_dir, keep_data):
+        self.data_dir = tempfile.mkdtemp(prefix="excite-bench-")
+        self.keep_data = keep_data
+        self.log_path = os.path.join(out_dir, "server.log")
+        self.stdout_path = os.path.join(out_dir, "server.stdout")
+        self.stdout = open(self.stdout_path, "wb")
+        self.stderr = open(self.log_path, "wb")
+        self.proc = subprocess.Popen(
+            [binary, "--listen=127.0.0.1:0", f"--data_dir={self.data_dir}"],
+            stdout=self.stdout, stderr=self.stderr, cwd=REPO, start_new_session=True)
+        self.address = None
+
+    def wait_ready(self, timeout=30.0):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with open(self.stdout_path, "rb") as f:
+                m = re.search(rb"^excite-server listening on (\S+)$", f.read(), re.M)
+            if m:
+                self.address = m.group(1).decode()
+                return self.address
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"excite-server exited with {self.proc.returncode}; "
+                                   f"see {self.log_path}")
+            time.sleep(0.05)
+        raise RuntimeError(f"excite-server not ready within {timeout:.0f} s")
+
+    def alive(self):
+        return self.proc.poll() is None
+
+    def stop(self):
+        code = self.proc.poll()
+        if code is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                code = self.proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                code = self.proc.wait()
+        self.stdout.close()
+        self.stderr.close()
+        if not self.keep_data:
+            shutil.rmtree(self.data_dir, ignore_errors=True)
+        return code
+
+
+# ------------------------------------------------------------------------- trials
+
+
+def start_trial(t, sim_bin, address):
+    os.makedirs(os.path.dirname(t.log_path), exist_ok=True)
+    for p in (t.summary_path,):
+        if os.path.exists(p):
+            os.remove(p)
+    cmd = [sim_bin, f"--server={address}", f"--config={t.config}",
+           f"--strategy={t.strategy}", f"--seed={t.seed}", f"--summary={t.summary_path}"]
+    if t.samples:
+        cmd.append(f"--samples={t.samples}")
+    logf = open(t.log_path, "wb")
+    logf.write(("$ " + " ".join(cmd) + "\n").encode())
+    logf.flush()
+    t.proc = subprocess.Popen(cmd, stdout=logf, stderr=subprocess.STDOUT, cwd=REPO,
+                              start_new_session=True)
+    t.logf = logf
+    t.start = time.monotonic()
+    t.status = "running"
+
+
+def trial_progress(t):
+    """Samples reached so far, from the last 'samples N' in the trial's log."""
+    try:
+        with open(t.log_path, "rb") as f:
+            f.seek(0, os.SEEK_END)
+            size = f.tell()
+            f.seek(max(0, size - 400))
+            found = PROGRESS_RE.findall(f.read())
+        return int(found[-1]) if found else 0
+    except OSError:
+        return 0
+
+
+def last_error(path):
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            lines = [l.strip() for l in f if l.strip()]
+    except OSError:
+        return "no log"
+    # excite-sim's failure line: "excite-sim: <message> (<STATUS_CODE>)".
+    errors = [l for l in lines if re.match(r"^excite-sim: .*\([A-Z_]+\)$", l)]
+    return (errors or lines or ["empty log"])[-1]
+
+
+def finish_trial(t):
+    code = t.proc.returncode
+    t.wall = time.monotonic() - t.start
+    t.logf.close()
+    if code == 0:
+        try:
+            with open(t.summary_path, encoding="utf-8") as f:
+                s = json.load(f)
+            s["system_reported"] = s.get("system")
+            s["system"], s["strategy"] = t.system, t.strategy
+            s["trial"], s["seed"] = t.index, t.seed
+            t.result = s
+            t.status = "ok"
+            return
+        except (OSError, ValueError) as e:
+            t.error = f"exit 0 but no summary: {e}"
+    elif code < 0:
+        t.error = f"killed by signal {-code}"
+    else:
+        t.error = last_error(t.log_path)
+    t.status = "failed"
+
+
+class Estimator:
+    """Expected wall time of a trial from the trials finished so far: the mean of
+    its pair; else seconds per sample of its system (any strategy); else of all."""
+
+    def __init__(self):
+        self.done = []  # (system, strategy, samples, wall)
+
+    def add(self, t, samples):
+        self.done.append((t.system, t.strategy, samples or 1, t.wall))
+
+    def estimate(self, t, samples):
+        same = [w for s, st, _, w in self.done if (s, st) == t.pair]
+        if same:
+            return sum(same) / len(same)
+        for pick in (lambda s: s == t.system, lambda s: True):
+            rows = [(n, w) for s, _, n, w in self.done if pick(s)]
+            if rows:
+                per_sample = sum(w for _, w in rows) / sum(n for n, _ in rows)
+                return per_sample * (samples or 1)
+        return None
+
+
+def run_trials(trials, args, server, samples_of):
+    jobs = max(1, args.jobs)
+    queue = list(trials)
+    running = []
+    broken = {}  # pair -> reason
+    succeeded_pairs = set()
+    est = Estimator()
+    total = len(trials)
+    done = failed = 0
+    t0 = time.monotonic()
+    timeout = args.trial_timeout
+
+    def eta():
+        rem = 0.0
+        for q in queue:
+            e = est.estimate(q, samples_of.get(q.system))
+            if e is None:
+                return None
+            rem += e
+        now = time.monotonic()
+        for r in running:
+            e = est.estimate(r, samples_of.get(r.system))
+            elapsed = now - r.start
+            n, big_n = trial_progress(r), samples_of.get(r.system) or 0
+            if e is None:
+                if n <= 0 or not big_n:
+                    return None
+                e = elapsed * big_n / n
+            rem += max(e - elapsed, 0.0)
+        return rem / jobs
+
+    def status_line():
+        now = time.monotonic()
+        parts = []
+        for r in running:
+            n = trial_progress(r)
+            parts.append(f"{r.name()} {n}/{samples_of.get(r.system) or '?'} "
+                         f"{fmt_duration(now - r.start)}")
+        e = eta()
+        return (f"[{done}/{total} done, {failed} failed] running: "
+                + ", ".join(parts) + f" | elapsed {fmt_duration(now - t0)}, "
+                f"left ~{fmt_duration(e) if e is not None else '? (after first trials)'}")
+
+    try:
+        while queue or running:
+            if not server.alive():
+                raise RuntimeError(f"excite-server exited with {server.proc.returncode}; "
+                                   f"see {server.log_path}")
+            while len(running) < jobs and queue:
+                t = queue.pop(0)
+                if t.pair in broken:
+                    t.status, t.error = "skipped", broken[t.pair]
+                    continue
+                start_trial(t, args.sim_bin, server.address)
+                running.append(t)
+            for r in list(running):
+                if r.proc.poll() is None:
+                    if timeout and time.monotonic() - r.start > timeout:
+                        os.kill(r.proc.pid, signal.SIGKILL)
+                        r.proc.wait()
+                        finish_trial(r)
+                        r.error = f"timeout after {timeout:.0f} s"
+                    else:
+                        continue
+                else:
+                    finish_trial(r)
+                running.remove(r)
+                if r.status == "ok":
+                    done += 1
+                    succeeded_pairs.add(r.pair)
+                    est.add(r, r.result.get("samples"))
+                    s = r.result
+                    cov = s.get("coverage_marginal")
+                    e = eta()
+                    log(f"[{done + failed}/{total}] {r.name()} seed {r.seed}: "
+                        f"{s.get('samples')} samples, rmse {s.get('final_rmse'):.4g}, "
+                        f"coverage {100 * cov if cov is not None else float('nan'):.1f}% "
+                        f"({r.wall:.1f} s) | elapsed {fmt_duration(time.monotonic() - t0)}"
+                        f", left ~{fmt_duration(e) if e is not None else '?'}")
+                else:
+                    failed += 1
+                    log(f"[{done + failed}/{total}] {r.name()} FAILED: {r.error} "
+                        f"(log {os.path.relpath(r.log_path)})")
+                    if r.pair not in succeeded_pairs and r.pair not in broken:
+                        broken[r.pair] = f"skipped: first trial failed: {r.error}"
+                        n = sum(1 for q in queue if q.pair == r.pair)
+                        if n:
+                            log(f"    {r.system}/{r.strategy}: skipping its {n} other "
+                                "trial(s)")
+            if running:
+                Progress.show(status_line())
+            time.sleep(0.25)
+    except KeyboardInterrupt:
+        log("interrupted: stopping the running trials")
+        for r in running:
+            try:
+                os.kill(r.proc.pid, signal.SIGTERM)
+                r.proc.wait(timeout=10)
+            except (ProcessLookupError, subprocess.TimeoutExpired):
+                os.kill(r.proc.pid, signal.SIGKILL)
+                r.proc.wait()
+            finish_trial(r)
+            r.status, r.error = "failed", "interrupted"
+        for q in queue:
+            q.status, q.error = "skipped", "interrupted"
+        Progress.clear()
+        return True
+    Progress.clear()
+    return False
+
+
+# ------------------------------------------------------------------------ reports
+
+
+def machine_description():
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    os_name = platform.platform()
+    try:
+        with open("/etc/os-release", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("PRETTY_NAME="):
+                    os_name = line.split("=", 1)[1].strip().strip('"')
+    except OSError:
+        pass
+    return f"{os.cpu_count()} x {cpu}, {os_name}"
+
+
+def git_commit():
+    try:
+        out = subprocess.run(["git", "-C", REPO, "rev-parse", "--short", "HEAD"],
+                             capture_output=True, text=True, timeout=10)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def write_reports(out_dir, cfg, meta, trial_records, results):
+    """results.csv, trials.csv, table.md, summary.json and the plots."""
+    systems = [s for s in meta["systems"]]
+    strategies = meta["strategies"]
+    sys_labels = {s: cfg["systems"].get(s, {}).get("label", s) for s in systems}
+    st_labels = cfg.get("strategy_labels", {})
+    planned = {tuple(k.split("/")): v for k, v in meta["planned"].items()}
+
+    aggregate.write_csv(os.path.join(out_dir, "results.csv"), results)
+    with open(os.path.join(out_dir, "trials.csv"), "w", encoding="utf-8") as f:
+        f.write("system,strategy,trial,seed,status,samples,final_rmse,"
+                "coverage_marginal,coverage_joint,plan_ms_p50,wall_s,error\n")
+        for r in trial_records:
+            s = r.get("result") or {}
+            vals = [r["system"], r["strategy"], r["trial"], r["seed"], r["status"],
+                    s.get("samples", ""), s.get("final_rmse", ""),
+                    s.get("coverage_marginal", ""), s.get("coverage_joint", ""),
+                    s.get("plan_ms_p50", ""), s.get("wall_s", "")]
+            vals = ["" if v is None else str(v) for v in vals]
+            err = (r.get("error") or "").replace('"', "'")
+            f.write(",".join(vals) + f',"{err}"\n')
+
+    stats = aggregate.final_stats(results)
+    history = aggregate.history_stats(results)
+    shown_systems = [s for s in systems if any((s, st) in planned for st in strategies)]
+    shown_strats = [st for st in strategies if any((s, st) in planned for s in systems)]
+    if not shown_systems or not shown_strats:
+        shown_systems, shown_strats = systems, strategies
+
+    samples = ", ".join(f"{sys_labels[s]} {meta['samples'].get(s)}"
+                        for s in shown_systems)
+    mode_text = {"full": "full mode", "quick": "QUICK mode (small sample budgets, "
+                 "not the paper's protocol)", "ci": "CI mode (tiny budgets; a smoke "
+                 "test, the numbers mean nothing)"}[meta["mode"]]
+    lines = [
+        f"# Paper benchmark: final RMSE and coverage ({meta['mode']})",
+        "",
+        f"- Mode: {mode_text}; samples per trial: {samples}.",
+        f"- Run: {meta['started']}, {fmt_duration(meta.get('wall_s'))} wall, "
+        f"--jobs {meta['jobs']}, commit {meta['commit']}.",
+        f"- Machine: {meta['machine']}.",
+        f"- Command: `{meta['command']}`",
+        "- Cells: mean ± sample std over the successful trials (seeds = trial index); "
+        "best per column in **bold** (lowest RMSE, highest coverage). RMSE in state "
+        "units over the config's evaluation set; coverage marginal = mean over state "
+        "dimensions of the fraction of bins visited; joint = fraction of "
+        "joint_bins^dx cells (n/a for dx > 4); see sim/README.md.",
+        "",
+        aggregate.markdown_table(stats, shown_systems, shown_strats, sys_labels,
+                                 st_labels),
+        "Trials (succeeded/planned):",
+        "",
+        aggregate.trial_count_table(stats, planned, shown_systems, shown_strats,
+                                    sys_labels, st_labels),
+    ]
+    if meta["skipped"]:
+        lines.append("Not run:")
+        lines.append("")
+        for what, reason in condense_skipped(meta["skipped"]):
+            lines.append(f"- {what}: {reason}")
+        lines.append("")
+    failed = [r for r in trial_records if r["status"] in ("failed", "skipped")]
+    if failed:
+        lines.append("Failed or skipped trials:")
+        lines.append("")
+        for r in failed:
+            lines.append(f"- {r['system']}/{r['strategy']} trial {r['trial']}: "
+                         f"{r['status']}: {r.get('error', '')}")
+        lines.append("")
+    table_md = "\n".join(lines)
+    with open(os.path.join(out_dir, "table.md"), "w", encoding="utf-8") as f:
+        f.write(table_md)
+
+    with open(os.path.join(out_dir, "summary.json"), "w", encoding="utf-8") as f:
+        json.dump({
+            "meta": meta,
+            "final": [{"system": k[0], "strategy": k[1], **v} for k, v in stats.items()],
+            "history": [{"system": k[0], "strategy": k[1],
+                         "points": [{"samples": p[0], "mean": p[1], "std": p[2],
+                                     "n": p[3]} for p in v]}
+                        for k, v in history.items()],
+        }, f, indent=1)
+
+    pngs = []
+    try:
+        import plots
+    except ImportError as e:
+        log(f"WARNING: no plots ({e}); install python3-matplotlib and run "
+            f"{sys.argv[0]} --report_only {out_dir}")
+        return table_md, pngs
+    subtitle = {"full": "", "quick": "quick mode", "ci": "CI mode"}[meta["mode"]]
+    for s in shown_systems:
+        path = os.path.join(out_dir, f"rmse_{s}.png")
+        if plots.plot_rmse_system(path, history, s, shown_strats, sys_labels[s],
+                                  st_labels, subtitle):
+            pngs.append(path)
+    path = os.path.join(out_dir, "rmse_all.png")
+    if plots.plot_rmse_all(path, history, shown_systems, shown_strats, sys_labels,
+                           st_labels, subtitle):
+        pngs.append(path)
+    path = os.path.join(out_dir, "coverage.png")
+    if plots.plot_coverage(path, stats, shown_systems, shown_strats, sys_labels,
+                           st_labels, subtitle):
+        pngs.append(path)
+    return table_md, pngs
+
+
+def trial_record(t):
+    return {"system": t.system, "strategy": t.strategy, "trial": t.index,
+            "seed": t.seed, "status": t.status, "error": t.error, "wall": t.wall,
+            "result": t.result}
+
+
+def report_only(out_dir, cfg):
+    with open(os.path.join(out_dir, "run.json"), encoding="utf-8") as f:
+        saved = json.load(f)
+    meta, records = saved["meta"], saved["trials"]
+    results = [r["result"] for r in records if r["status"] == "ok" and r["result"]]
+    table_md, pngs = write_reports(out_dir, cfg, meta, records, results)
+    print(table_md)
+    for p in pngs:
+        print("plot:", p)
+    return 0
+
+
+# --------------------------------------------------------------------------- main
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(
+        description="Runs the paper's benchmark (Table and Figure of Section 6) with "
+        "real excite-server and excite-sim processes.")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--quick", action="store_true",
+                      help="small sample budgets and 1-2 trials (< 10 min)")
+    mode.add_argument("--ci", action="store_true",
+                      help="pendulum + one MuJoCo system, tiny budgets, then check "
+                      "the outputs (exit 1 on a problem)")
+    p.add_argument("--systems", nargs="+", help="subset, e.g. pendulum,dipc")
+    p.add_argument("--strategies", nargs="+", help="subset, e.g. rec pa greedy")
+    p.add_argument("--trials", type=int, default=0, help="trials per pair (overrides)")
+    p.add_argument("--samples", type=int, default=0, help="samples per trial (overrides)")
+    p.add_argument("--jobs", type=int, default=2, help="excite-sim processes at once")
+    p.add_argument("--out", help="results directory (default results/paper/<timestamp>)")
+    p.add_argument("--config", default=DEFAULT_CONFIG, help="benchmark settings (JSON)")
+    p.add_argument("--server_bin", "--server-bin", dest="server_bin",
+                   default=DEFAULT_SERVER)
+    p.add_argument("--sim_bin", "--sim-bin", dest="sim_bin", default=DEFAULT_SIM)
+    p.add_argument("--seed_offset", "--seed-offset", dest="seed_offset", type=int,
+                   default=0, help="seed of trial k is seed_offset + k")
+    p.add_argument("--trial_timeout", "--trial-timeout", dest="trial_timeout",
+                   type=float, default=None, help="seconds; default from the config")
+    p.add_argument("--keep_data", "--keep-data", dest="keep_data", action="store_true",
+                   help="keep the server's temporary data directory")
+    p.add_argument("--dry_run", "--dry-run", dest="dry_run", action="store_true",
+                   help="print the plan (and what is missing) and exit")
+    p.add_argument("--report_only", "--report-only", dest="report_only",
+                   metavar="DIR", help="re-aggregate an existing results directory")
+    return p.parse_args(argv)
+
+
+def main(argv):
+    args = parse_args(argv)
+    cfg = load_config(args.config)
+    if args.report_only:
+        return report_only(args.report_only, cfg)
+    mode = "quick" if args.quick else "ci" if args.ci else "full"
+    for b in (args.server_bin, args.sim_bin):
+        if not os.access(b, os.X_OK):
+            sys.exit(f"run.py: {b} not found or not executable; build first "
+                     "(cmake --preset release && cmake --build --preset release -j2) "
+                     "or pass --server_bin/--sim_bin")
+    if args.trial_timeout is None:
+        args.trial_timeout = float(cfg.get("trial_timeout_s", {}).get(mode, 0)) or None
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    out_dir = os.path.abspath(args.out or os.path.join(REPO, "results", "paper", stamp))
+
+    trials, skipped, planned, samples_of, systems, strategies = make_plan(
+        cfg, args, mode, out_dir)
+    log(f"paper benchmark, {mode} mode: {len(trials)} trials, --jobs {args.jobs}, "
+        f"results in {out_dir}")
+    for system in systems:
+        n = {st: planned[(system, st)] for st in strategies if (system, st) in planned}
+        if n:
+            log(f"  {system}: {samples_of.get(system)} samples; trials "
+                + ", ".join(f"{st} {c}" for st, c in n.items()))
+    for what, reason in condense_skipped(skipped):
+        log(f"  NOT RUN {what}: {reason}")
+    if args.dry_run:
+        return 0
+    if not trials:
+        log("run.py: nothing to run")
+        return 1
+    os.makedirs(out_dir, exist_ok=True)
+
+    meta = {
+        "mode": mode, "started": datetime.datetime.now().isoformat(timespec="seconds"),
+        "command": " ".join(["bench/paper/run.py"] + argv), "jobs": args.jobs,
+        "machine": machine_description(), "commit": git_commit(),
+        "systems": systems, "strategies": strategies,
+        "planned": {f"{k[0]}/{k[1]}": v for k, v in planned.items()},
+        "samples": samples_of, "skipped": skipped,
+    }
+    t0 = time.monotonic()
+    server = Server(args.server_bin, out_dir, args.keep_data)
+    interrupted = False
+    server_error = None
+    try:
+        address = server.wait_ready()
+        log(f"excite-server listening on {address} (pid {server.proc.pid}), "
+            f"data in {server.data_dir}")
+        interrupted = run_trials(trials, args, server, samples_of)
+    except RuntimeError as e:
+        server_error = str(e)
+        log(f"run.py: {e}")
+        for t in trials:
+            if t.status == "running":
+                try:
+                    os.kill(t.proc.pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+                t.proc.wait()
+                finish_trial(t)
+            if t.status in ("queued", "running"):
+                t.status, t.error = "skipped", "server failed"
+    finally:
+        code = server.stop()
+    if code != 0 and not server_error:
+        server_error = f"excite-server exit code {code} on SIGTERM"
+        log(f"run.py: {server_error}")
+    meta["wall_s"] = time.monotonic() - t0
+
+    records = [trial_record(t) for t in trials]
+    with open(os.path.join(out_dir, "run.json"), "w", encoding="utf-8") as f:
+        json.dump({"meta": meta, "trials": records}, f, indent=1)
+    results = [t.result for t in trials if t.status == "ok"]
+    table_md, pngs = write_reports(out_dir, cfg, meta, records, results)
+    log("")
+    log(table_md)
+    for p in pngs:
+        log(f"plot: {p}")
+    log(f"results: {out_dir} ({fmt_duration(meta['wall_s'])})")
+
+    status = 0
+    if interrupted or server_error or not results:
+        status = 1
+    if mode == "ci":
+        ok_pairs = sorted({(t.system, t.strategy) for t in trials})
+        problems = check.check_outputs(
+            out_dir, ok_pairs,
+            {s: cfg["systems"][s].get("label", s) for s in cfg["systems"]},
+            cfg.get("strategy_labels", {}))
+        failed = [t for t in trials if t.status != "ok"]
+        problems += [f"{t.name()}: {t.status}: {t.error}" for t in failed]
+        if "pendulum" not in {t.system for t in trials if t.status == "ok"}:
+            problems.append("no successful pendulum trial")
+        if not any(cfg["systems"][t.system].get("mujoco") for t in trials):
+            log("note: no MuJoCo system exists yet; CI ran without one")
+        if problems:
+            log("CI check FAILED:")
+            for pr in problems:
+                log(f"  - {pr}")
+            status = 1
+        else:
+            log(f"CI check passed: {len(ok_pairs)} system/strategy pairs, outputs "
+                "well formed")
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
