@@ -63,7 +63,7 @@ deploy/podman/base-image.sh "$base"
 log "base image ready"
 
 # 2. Image. --format docker keeps the HEALTHCHECK (OCI images have none).
-podman build --format docker --build-arg BASE="$base" \
+podman build --format docker --jobs 2 --build-arg BASE="$base" \
   -f deploy/Containerfile -t "$image" . >"$out/build.log" 2>&1 ||
   { tail -40 "$out/build.log" >&2; fail "podman build failed"; }
 size=$(podman image inspect --format '{{.Size}}' "$image")
