@@ -83,11 +83,13 @@ def plot_rmse_all(path, history, systems, strategies, system_labels,
             if n not in names:
                 handles.append(h)
                 names.append(n)
-    for ax in axes.flat[len(systems):]:
+    spare = list(axes.flat[len(systems):])
+    for ax in spare:
         ax.axis("off")
-    fig.legend(handles, names, loc="lower right" if len(systems) % 2 else "upper right",
-               fontsize=9, ncol=1, bbox_to_anchor=(0.98, 0.06)
-               if len(systems) % 2 else (0.99, 0.99))
+    if spare:  # the legend in the empty panel, as in the paper's Figure
+        spare[0].legend(handles, names, loc="center", fontsize=10, title="strategy")
+    else:
+        axes.flat[0].legend(handles, names, fontsize=8)
     fig.suptitle("RMSE over samples (mean ± std)" + (f" — {subtitle}" if subtitle else ""))
     fig.tight_layout()
     fig.savefig(path)

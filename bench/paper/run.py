@@ -240,7 +240,7 @@ def make_plan(cfg, args, mode, out_dir):
             Trial(system, strategy, k, args.seed_offset + k, samples,
                   config_paths[system], out_dir) for k in range(n)]
     # Trial-major order: trial 0 of every pair first (failures show early, and an
-    # interrupted run has every pair), heaviest systems first within a round.
+    # interrupted run has every pair), then trial 1 of every pair, and so on.
     trials = []
     rounds = max((len(v) for v in trials_by_pair.values()), default=0)
     for k in range(rounds):
@@ -661,6 +661,28 @@ def report_only(out_dir, cfg):
 
 # --------------------------------------------------------------------------- main
 
+OUTPUT_FILES = ["run.json", "results.csv", "trials.csv", "table.md", "summary.json",
+                "server.log", "server.stdout", "rmse_all.png", "coverage.png"]
+
+
+def prepare_out_dir(out_dir):
+    """Creates the results directory. An earlier run's outputs in it (a directory
+    with run.json) are removed first, so nothing stale is checked or plotted; any
+    other non-empty directory is refused."""
+    if os.path.isdir(out_dir) and os.listdir(out_dir):
+        if not os.path.isfile(os.path.join(out_dir, "run.json")) and not os.path.isdir(
+                os.path.join(out_dir, "trials")):
+            sys.exit(f"run.py: {out_dir} exists and is not a results directory; "
+                     "choose another --out")
+        for name in os.listdir(out_dir):
+            path = os.path.join(out_dir, name)
+            if name in OUTPUT_FILES or re.fullmatch(r"rmse_\w+\.png", name):
+                os.remove(path)
+            elif name == "trials" and os.path.isdir(path):
+                shutil.rmtree(path)
+    os.makedirs(out_dir, exist_ok=True)
+
+
 
 def parse_args(argv):
     p = argparse.ArgumentParser(
@@ -727,7 +749,7 @@ def main(argv):
     if not trials:
         log("run.py: nothing to run")
         return 1
-    os.makedirs(out_dir, exist_ok=True)
+    prepare_out_dir(out_dir)
 
     meta = {
         "mode": mode, "started": datetime.datetime.now().isoformat(timespec="seconds"),

@@ -1,0 +1,224 @@
+"""Unit tests of bench/paper's aggregation, CSV writing and output checks, on
+constructed data (no server, no simulator).
+
+  /usr/bin/python3 tests/bench_paper/aggregate_test.py [--bench_dir bench/paper]
+"""
+
+import csv
+import math
+import os
+import sys
+import tempfile
+import unittest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+BENCH_DIR = os.path.join(HERE, "..", "..", "bench", "paper")
+if "--bench_dir" in sys.argv:
+    i = sys.argv.index("--bench_dir")
+    BENCH_DIR = sys.argv[i + 1]
+    del sys.argv[i:i + 2]
+sys.path.insert(0, os.path.abspath(BENCH_DIR))
+
+import aggregate  # noqa: E402
+import check  # noqa: E402
+
+
+def trial(system, strategy, index, history, cov=0.5, joint=None, plan=10.0, wall=1.0):
+    return {
+        "system": system, "strategy": strategy, "trial": index, "seed": index,
+        "samples": history[-1][0] if history else 0,
+        "final_rmse": history[-1][1] if history else None,
+        "coverage_marginal": cov, "coverage_joint": joint,
+        "rmse_history": history, "plan_ms_p50": plan, "wall_s": wall,
+    }
+
+
+class MeanStdTest(unittest.TestCase):
+    def test_known_values(self):
+        m, s, n = aggregate.mean_std([2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0])
+        self.assertEqual(n, 8)
+        self.assertAlmostEqual(m, 5.0)
+        # Sample (n - 1) standard deviation: sqrt(32 / 7).
+        self.assertAlmostEqual(s, math.sqrt(32.0 / 7.0))
+
+    def test_one_value_has_no_spread(self):
+        self.assertEqual(aggregate.mean_std([3.0]), (3.0, None, 1))
+
+    def test_empty_and_non_finite_are_ignored(self):
+        self.assertEqual(aggregate.mean_std([]), (None, None, 0))
+        m, s, n = aggregate.mean_std([1.0, None, float("nan"), float("inf"), 3.0])
+        self.assertEqual((m, n), (2.0, 2))
+        self.assertAlmostEqual(s, math.sqrt(2.0))
+
+
+class FormatTest(unittest.TestCase):
+    def test_decimals_three_significant_digits(self):
+        self.assertEqual(aggregate.decimals_for(0.1534), 3)
+        self.assertEqual(aggregate.decimals_for(1.4), 2)
+        self.assertEqual(aggregate.decimals_for(12.0), 1)
+        self.assertEqual(aggregate.decimals_for(345.0), 0)
+        self.assertEqual(aggregate.decimals_for(None), 2)
+
+    def test_cells(self):
+        self.assertEqual(aggregate.format_mean_std(1.234, 0.5, 3, 2), "1.23 ± 0.50")
+        self.assertEqual(aggregate.format_mean_std(1.234, None, 1, 2), "1.23 (n=1)")
+        self.assertEqual(aggregate.format_mean_std(None, None, 0, 2), "n/a")
+
+
+class StatsTest(unittest.TestCase):
+    def setUp(self):
+        self.trials = [
+            trial("pendulum", "rec", 1, [[10, 1.0], [20, 0.4]], cov=0.8, joint=0.3),
+            trial("pendulum", "rec", 0, [[10, 3.0], [20, 0.2]], cov=0.6, joint=0.1),
+            trial("pendulum", "pa", 0, [[10, 2.0], [20, 1.0]], cov=0.5, joint=None),
+            trial("dipc", "rec", 0, [[10, 5.0]], cov=0.2),
+        ]
+
+    def test_final_stats(self):
+        stats = aggregate.final_stats(self.trials)
+        rec = stats[("pendulum", "rec")]
+        self.assertEqual(rec["trials"], 2)
+        self.assertAlmostEqual(rec["rmse"]["mean"], 0.3)
+        self.assertAlmostEqual(rec["rmse"]["std"], math.sqrt(0.02))
+        self.assertAlmostEqual(rec["coverage_marginal"]["mean"], 0.7)
+        self.assertAlmostEqual(rec["coverage_joint"]["mean"], 0.2)
+        self.assertIsNone(stats[("pendulum", "pa")]["coverage_joint"]["mean"])
+        self.assertEqual(stats[("dipc", "rec")]["rmse"]["n"], 1)
+
+    def test_history_stats_align_on_samples(self):
+        history = aggregate.history_stats(self.trials)
+        rows = history[("pendulum", "rec")]
+        self.assertEqual([r[0] for r in rows], [10, 20])
+        self.assertAlmostEqual(rows[0][1], 2.0)
+        self.assertAlmostEqual(rows[0][2], math.sqrt(2.0))
+        self.assertEqual(rows[1][3], 2)
+
+    def test_history_with_unequal_lengths(self):
+        trials = [trial("p", "rec", 0, [[10, 1.0], [20, 2.0]]),
+                  trial("p", "rec", 1, [[10, 3.0]])]
+        rows = aggregate.history_stats(trials)[("p", "rec")]
+        self.assertEqual(rows[0][3], 2)
+        self.assertEqual(rows[1], (20, 2.0, None, 1))
+
+
+class BestMarkingTest(unittest.TestCase):
+    def test_lowest_and_highest(self):
+        cells = {"rec": 1.4, "pa": 2.5, "prbs": 5.7, "sep": None}
+        self.assertEqual(aggregate.best_in_column(cells, True, 1), {"rec"})
+        self.assertEqual(aggregate.best_in_column(cells, False, 1), {"prbs"})
+
+    def test_ties_as_displayed_are_all_marked(self):
+        cells = {"rec": 1.791, "pa": 1.789, "greedy": 1.92}
+        self.assertEqual(aggregate.best_in_column(cells, True, 2), {"rec", "pa"})
+        self.assertEqual(aggregate.best_in_column(cells, True, 3), {"pa"})
+
+    def test_empty_column(self):
+        self.assertEqual(aggregate.best_in_column({"rec": None}, True, 2), set())
+
+    def test_markdown_table(self):
+        trials = [
+            trial("pendulum", "rec", 0, [[10, 1.2]], cov=0.40),
+            trial("pendulum", "rec", 1, [[10, 1.6]], cov=0.50),
+            trial("pendulum", "pa", 0, [[10, 2.5]], cov=0.55),
+            trial("pendulum", "pa", 1, [[10, 2.5]], cov=0.55),
+            trial("dipc", "pa", 0, [[10, 1.79]], cov=0.75),
+        ]
+        stats = aggregate.final_stats(trials)
+        md = aggregate.markdown_table(stats, ["pendulum", "dipc"], ["rec", "pa"],
+                                      {"pendulum": "Pendulum", "dipc": "DIPC"},
+                                      {"pa": "p&a"})
+        lines = md.strip().split("\n")
+        self.assertEqual(lines[0], "| | Pendulum | DIPC |")
+        self.assertEqual(lines[1], "|---|---|---|")
+        self.assertEqual(lines[2], "| **Final RMSE** | | |")
+        # Columns get three significant digits of their best mean.
+        self.assertEqual(lines[3], "| rec | **1.40 ± 0.28** | n/a |")
+        self.assertEqual(lines[4], "| p&a | 2.50 ± 0.00 | **1.79 (n=1)** |")
+        self.assertEqual(lines[5], "| **Coverage, marginal (% of region)** | | |")
+        self.assertEqual(lines[6], "| rec | 45.0 ± 7.1 | n/a |")
+        self.assertEqual(lines[7], "| p&a | **55.0 ± 0.0** | **75.0 (n=1)** |")
+        self.assertEqual(lines[8], "| **Coverage, joint cells (% of region)** | | |")
+        self.assertEqual(lines[9], "| rec | n/a | n/a |")
+        self.assertEqual(len(lines), 11)
+        for line in lines:
+            self.assertEqual(line.count("|"), 4, line)
+
+    def test_trial_count_table(self):
+        stats = aggregate.final_stats([trial("pendulum", "rec", 0, [[10, 1.0]])])
+        md = aggregate.trial_count_table(
+            stats, {("pendulum", "rec"): 3, ("pendulum", "pa"): 2},
+            ["pendulum"], ["rec", "pa", "sep"])
+        self.assertIn("| rec | 1/3 |", md)
+        self.assertIn("| pa | 0/2 |", md)
+        self.assertIn("| sep | - |", md)
+
+
+class CsvTest(unittest.TestCase):
+    def test_write_and_read_back(self):
+        trials = [
+            trial("pendulum", "rec", 1, [[10, 0.9], [20, 0.25]], cov=0.825, joint=0.37,
+                  plan=218.25),
+            trial("dipc", "pa", 0, [[10, float("nan")], [20, 3.1]], cov=0.1, joint=None,
+                  plan=12.5),
+        ]
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "results.csv")
+            aggregate.write_csv(path, trials)
+            with open(path, newline="") as f:
+                rows = list(csv.reader(f))
+            self.assertEqual(rows[0], aggregate.CSV_COLUMNS)
+            self.assertEqual(rows[0], ["system", "strategy", "trial", "samples", "rmse",
+                                       "coverage_marginal", "coverage_joint",
+                                       "plan_ms"])
+            # Sorted by system, strategy, trial; one row per history point.
+            self.assertEqual(len(rows), 5)
+            self.assertEqual(rows[1], ["dipc", "pa", "0", "10", "", "", "", ""])
+            self.assertEqual(rows[2], ["dipc", "pa", "0", "20", "3.1", "0.1", "", "12.5"])
+            self.assertEqual(rows[3], ["pendulum", "rec", "1", "10", "0.9", "", "", ""])
+            self.assertEqual(rows[4], ["pendulum", "rec", "1", "20", "0.25", "0.825",
+                                       "0.37", "218.25"])
+            back = {(t["system"], t["trial"]): t for t in aggregate.read_csv(path)}
+            rec = back[("pendulum", 1)]
+            self.assertEqual(rec["rmse_history"], [[10, 0.9], [20, 0.25]])
+            self.assertEqual(rec["final_rmse"], 0.25)
+            self.assertEqual(rec["coverage_joint"], 0.37)
+            self.assertEqual(rec["plan_ms_p50"], 218.25)
+            self.assertNotIn("coverage_joint", back[("dipc", 0)])
+            self.assertEqual(check.check_csv(path, [("pendulum", "rec")]), [])
+            self.assertEqual(check.check_csv(path, [("pendulum", "pa")]),
+                             [f"{path}: no rows for pendulum/pa"])
+
+    def test_trial_without_history_gets_one_row(self):
+        rows = aggregate.csv_rows([trial("p", "rec", 0, [], cov=0.2)])
+        self.assertEqual(rows, [["p", "rec", "0", "0", "", "0.2", "", "10.0"]])
+
+    def test_wrong_columns_are_reported(self):
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "results.csv")
+            with open(path, "w") as f:
+                f.write("system,strategy,rmse\npendulum,rec,1\n")
+            problems = check.check_csv(path, [])
+            self.assertEqual(len(problems), 1)
+            self.assertIn("columns", problems[0])
+
+
+class PngCheckTest(unittest.TestCase):
+    def test_signature_and_size(self):
+        with tempfile.TemporaryDirectory() as d:
+            good = os.path.join(d, "good.png")
+            with open(good, "wb") as f:
+                f.write(check.PNG_SIGNATURE + b"\x00\x00\x00\x0dIHDR"
+                        + (640).to_bytes(4, "big") + (480).to_bytes(4, "big") + b"\x08")
+            self.assertEqual(check.check_png(good), "")
+            bad = os.path.join(d, "bad.png")
+            with open(bad, "wb") as f:
+                f.write(b"GIF89a" + b"\x00" * 30)
+            self.assertIn("signature", check.check_png(bad))
+            empty = os.path.join(d, "empty.png")
+            open(empty, "wb").close()
+            self.assertIn("too short", check.check_png(empty))
+            self.assertIn("missing", check.check_png(os.path.join(d, "none.png")))
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
