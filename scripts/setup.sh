@@ -11,6 +11,7 @@ PACKAGES=(
   libmujoco-dev libqhull-dev  # Debian's mujoco CMake package names qhull's headers
   libgtest-dev libgmock-dev libbenchmark-dev
   libgl-dev libopengl-dev  # mujoco's CMake package finds OpenGL (only recommended)
+  liblapack-dev libblas-dev  # ipopt.pc links -llapack -lblas (only recommended)
   # Python client and its tests (Debian's /usr/bin/python3; nothing from PyPI)
   python3-grpcio python3-protobuf python3-numpy python3-pytest python3-yaml
   python3-matplotlib  # bench/paper: the paper-table runner's plots
