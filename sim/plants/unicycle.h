@@ -11,11 +11,11 @@ namespace excite::sim {
 // Physical parameters of a planar unicycle / differential-drive vehicle (SI).
 struct UnicycleParameters {
   double mass_kg = 1.0;
-  double yaw_inertia = 0.1;       // I_z, kg m^2.
-  double half_track_m = 0.25;     // Distance of each wheel from the centre, m.
-  double forward_damping = 1.0;   // b_v, N s / m.
-  double lateral_damping = 10.0;  // b_w, N s / m: sideways (tyre) slip damping.
-  double yaw_damping = 0.1;       // b_r, N m s / rad.
+  double yaw_inertia = 0.05;     // I_z, kg m^2.
+  double half_track_m = 0.2;     // Distance of each wheel from the centre, m.
+  double forward_damping = 1.0;  // b_v, N s / m.
+  double lateral_damping = 4.0;  // b_w, N s / m: sideways (tyre) slip damping.
+  double yaw_damping = 0.2;      // b_r, N m s / rad.
 };
 
 // A dynamic unicycle driven by the forces of its two wheels, with viscous damping of

@@ -2,8 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <tuple>
+
 #include "absl/status/status.h"
+#include "sim/plants/mujoco_plant.h"
 #include "sim/plants/pendulum.h"
+#include "sim/plants/two_link_arm.h"
 
 namespace excite::sim {
 namespace {
@@ -31,6 +36,87 @@ TEST(PlantFactoryTest, BuildsPendulum) {
   EXPECT_EQ(pendulum->dt_s(), 0.1);
   EXPECT_EQ(pendulum->substeps(), 10);
   EXPECT_EQ(pendulum->parameters().gravity, 9.81);
+}
+
+TEST(PlantFactoryTest, BuildsEveryBenchmarkModel) {
+  v1::PlantConfig two_link;
+  two_link.set_dt_s(0.1);
+  two_link.set_substeps(20);
+  v1::TwoLinkParams* t = two_link.mutable_two_link();
+  t->set_mass1_kg(1);
+  t->set_mass2_kg(2);
+  t->set_length1_m(1);
+  t->set_length2_m(0.5);
+  t->set_gravity(9.81);
+  absl::StatusOr<std::unique_ptr<Plant>> plant = MakePlant(two_link);
+  ASSERT_TRUE(plant.ok()) << plant.status();
+  EXPECT_EQ((*plant)->name(), "two_link");
+  EXPECT_EQ(dynamic_cast<const TwoLinkArm&>(**plant).parameters().mass2_kg, 2.0);
+
+  v1::PlantConfig unicycle;
+  unicycle.set_dt_s(0.1);
+  unicycle.set_substeps(10);
+  v1::UnicycleParams* u = unicycle.mutable_unicycle();
+  u->set_mass_kg(1);
+  u->set_yaw_inertia(0.05);
+  u->set_half_track_m(0.2);
+  u->set_lateral_damping(4);
+  plant = MakePlant(unicycle);
+  ASSERT_TRUE(plant.ok()) << plant.status();
+  EXPECT_EQ((*plant)->state_dim(), 6);
+
+  for (auto [model, state_dim, input_dim] :
+       {std::tuple{"dipc", 8, 1}, std::tuple{"half_cheetah", 18, 6}}) {
+    v1::PlantConfig mujoco;
+    mujoco.set_dt_s(0.05);
+    mujoco.set_substeps(5);
+    mujoco.mutable_mujoco()->set_model(model);
+    plant = MakePlant(mujoco);
+    ASSERT_TRUE(plant.ok()) << plant.status();
+    EXPECT_EQ((*plant)->name(), model);
+    EXPECT_EQ((*plant)->state_dim(), state_dim);
+    EXPECT_EQ((*plant)->input_dim(), input_dim);
+    EXPECT_DOUBLE_EQ(dynamic_cast<const MujocoPlant&>(**plant).model().opt.timestep,
+                     0.01);
+  }
+}
+
+TEST(PlantFactoryTest, NewModelErrorsNameTheField) {
+  v1::PlantConfig config;
+  config.set_dt_s(0.1);
+  config.set_substeps(1);
+  config.mutable_mujoco()->set_model("cartpole");
+  absl::StatusOr<std::unique_ptr<Plant>> plant = MakePlant(config);
+  EXPECT_EQ(plant.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(plant.status().message().find("mujoco.model"), std::string::npos);
+
+  config.mutable_two_link()->set_mass1_kg(1);  // Other fields 0: not positive.
+  plant = MakePlant(config);
+  EXPECT_EQ(plant.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(plant.status().message().find("two_link.mass2_kg"), std::string::npos)
+      << plant.status();
+  v1::TwoLinkParams* t = config.mutable_two_link();
+  t->set_mass2_kg(1);
+  t->set_length1_m(1);
+  t->set_length2_m(1);
+  t->set_gravity(9.81);
+  t->set_damping2(-1);
+  plant = MakePlant(config);
+  EXPECT_NE(plant.status().message().find("two_link.damping2"), std::string::npos)
+      << plant.status();
+
+  v1::UnicycleParams* u = config.mutable_unicycle();
+  u->set_mass_kg(1);
+  u->set_yaw_inertia(0.05);
+  u->set_half_track_m(0.2);
+  plant = MakePlant(config);  // lateral_damping 0: the no-slip limit is not allowed.
+  EXPECT_NE(plant.status().message().find("unicycle.lateral_damping"), std::string::npos)
+      << plant.status();
+  u->set_lateral_damping(4);
+  u->set_yaw_damping(NAN);
+  plant = MakePlant(config);
+  EXPECT_NE(plant.status().message().find("unicycle.yaw_damping"), std::string::npos)
+      << plant.status();
 }
 
 TEST(PlantFactoryTest, ZeroDampingIsAllowed) {

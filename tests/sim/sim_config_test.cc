@@ -7,6 +7,7 @@
 #include <string>
 
 #include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
 #include "sim/plants/plant_factory.h"
 
 namespace excite::sim {
@@ -23,6 +24,57 @@ TEST(SimConfigTest, PendulumConfigParsesAndIsValid) {
   ASSERT_TRUE(plant.ok()) << plant.status();
   EXPECT_EQ((*plant)->name(), "pendulum");
 }
+
+struct PaperSystem {
+  const char* system;
+  int state_dim;
+  int input_dim;
+  double noise_variance;
+  int horizon;
+};
+
+class BenchmarkConfigTest : public testing::TestWithParam<PaperSystem> {};
+
+TEST_P(BenchmarkConfigTest, ParsesValidatesAndHasThePapersNumbers) {
+  const PaperSystem& paper = GetParam();
+  absl::StatusOr<v1::SimConfig> config =
+      LoadSimConfig(absl::StrCat(EXCITE_SIM_CONFIG_DIR, "/", paper.system, ".textproto"));
+  ASSERT_TRUE(config.ok()) << config.status();
+  EXPECT_TRUE(ValidateSimConfig(*config).ok()) << ValidateSimConfig(*config);
+  EXPECT_EQ(config->system(), paper.system);
+  absl::StatusOr<std::unique_ptr<Plant>> plant = MakePlant(config->plant());
+  ASSERT_TRUE(plant.ok()) << plant.status();
+  EXPECT_EQ((*plant)->name(), paper.system);
+  const v1::SessionConfig& session = config->session();
+  EXPECT_EQ(session.state_dim(), paper.state_dim);
+  EXPECT_EQ(session.input_dim(), paper.input_dim);
+  EXPECT_DOUBLE_EQ(session.noise().variance(), paper.noise_variance);
+  EXPECT_EQ(session.horizon(), paper.horizon);
+  EXPECT_TRUE(session.kernel().fit());
+  ASSERT_EQ(config->plant().initial_state_size(), paper.state_dim);
+  EXPECT_EQ(config->evaluation().seed(), 42u);
+
+  // The initial state is a rest state: one step without input barely moves it, and
+  // it lies inside the region of interest.
+  Eigen::VectorXd x0(paper.state_dim);
+  for (int i = 0; i < paper.state_dim; ++i) {
+    x0(i) = config->plant().initial_state(i);
+    EXPECT_GE(x0(i), session.state_bounds(i).lower()) << i;
+    EXPECT_LE(x0(i), session.state_bounds(i).upper()) << i;
+  }
+  const Eigen::VectorXd x1 = (*plant)->Step(x0, Eigen::VectorXd::Zero(paper.input_dim));
+  EXPECT_LT((x1 - x0).cwiseAbs().maxCoeff(), 1e-3) << (x1 - x0).transpose();
+}
+
+INSTANTIATE_TEST_SUITE_P(Paper, BenchmarkConfigTest,
+                         testing::Values(PaperSystem{"pendulum", 2, 1, 0.05, 15},
+                                         PaperSystem{"two_link", 4, 2, 0.05, 15},
+                                         PaperSystem{"dipc", 8, 1, 0.05, 15},
+                                         PaperSystem{"unicycle", 6, 2, 0.001, 15},
+                                         PaperSystem{"half_cheetah", 18, 6, 0.001, 10}),
+                         [](const testing::TestParamInfo<PaperSystem>& param_info) {
+                           return std::string(param_info.param.system);
+                         });
 
 TEST(SimConfigTest, PendulumConfigHasThePapersNumbers) {
   const v1::SimConfig config = *LoadSimConfig(kPendulumConfig);
