@@ -38,6 +38,7 @@ t0=$SECONDS
 log() { echo "[smoke $((SECONDS - t0))s] $*"; }
 fail() {
   echo "[smoke] FAIL: $*" >&2
+  [ -s "$out/podman.log" ] && { echo "--- podman messages" >&2; cat "$out/podman.log" >&2; }
   for c in "$server" "$server-2"; do
     if podman container exists "$c" 2>/dev/null; then
       echo "--- logs of $c" >&2
@@ -68,16 +69,16 @@ podman build --format docker --jobs 2 --build-arg BASE="$base" \
   { tail -40 "$out/build.log" >&2; fail "podman build failed"; }
 size=$(podman image inspect --format '{{.Size}}' "$image")
 log "image $image built: $((size / 1000000)) MB"
-[ "$(podman image inspect --format '{{.Config.User}}' "$image")" = "10001:10001" ] ||
-  fail "image does not run as user 10001:10001"
-podman image inspect --format '{{json .Config.ExposedPorts}}' "$image" | grep -q '50051/tcp' ||
-  fail "image does not expose 50051/tcp"
-podman image inspect --format '{{json .Config.Volumes}}' "$image" | grep -q '/var/lib/excite' ||
-  fail "image has no /var/lib/excite volume"
-podman image inspect --format '{{json .Config.Healthcheck}}' "$image" | grep -q 'excite-health' ||
-  fail "image has no excite-health HEALTHCHECK"
+# (Outputs go to variables before grep: with pipefail, grep -q closing the pipe early
+# would fail the producer.)
+config=$(podman image inspect --format '{{.Config.User}} {{json .Config.ExposedPorts}}
+{{json .Config.Volumes}} {{json .Config.Healthcheck}}' "$image")
+[[ "$config" == "10001:10001 "* ]] || fail "image does not run as user 10001:10001: $config"
+[[ "$config" == *'"50051/tcp"'* ]] || fail "image does not expose 50051/tcp: $config"
+[[ "$config" == *'"/var/lib/excite"'* ]] || fail "image has no /var/lib/excite volume: $config"
+[[ "$config" == *excite-health* ]] || fail "image has no excite-health HEALTHCHECK: $config"
 # Runtime stage: binaries and libraries only.
-podman run --rm --entrypoint /bin/sh "$image" -c \
+podman run --rm --no-healthcheck --entrypoint /bin/sh "$image" -c \
   'for t in c++ g++ cmake protoc; do command -v $t && exit 1; done
    test ! -e /usr/include/grpcpp && test ! -e /src && id -u' >"$out/probe.txt" ||
   fail "runtime image holds build tools or sources: $(cat "$out/probe.txt")"
@@ -86,8 +87,10 @@ podman run --rm --entrypoint /bin/sh "$image" -c \
 # 3. Server: PID 1, read-only root, data on a named volume.
 podman network create "$net" >/dev/null
 podman volume create "$vol" >/dev/null
-podman run -d --name "$server" --network "$net" --read-only \
-  -v "$vol:/var/lib/excite" -e FLAGS_log_level=info "$image" >/dev/null
+# --health-interval=disable: no systemd timer for the check here (there is no systemd
+# to run it); the check itself stays and `podman healthcheck run` runs it.
+podman run -d --name "$server" --network "$net" --read-only --health-interval=disable \
+  -v "$vol:/var/lib/excite" -e FLAGS_log_level=info "$image" >/dev/null 2>>"$out/podman.log"
 healthy=0
 for _ in $(seq 1 60); do
   if podman healthcheck run "$server" >/dev/null 2>&1; then
@@ -97,13 +100,13 @@ for _ in $(seq 1 60); do
   sleep 1
 done
 [ "$healthy" = 1 ] || fail "server never became healthy (grpc.health.v1 SERVING)"
-podman exec "$server" cat /proc/1/cmdline | tr '\0' ' ' | grep -q '^excite-server ' ||
-  fail "excite-server is not PID 1"
+pid1=$(podman exec "$server" cat /proc/1/cmdline | tr '\0' ' ')
+[[ "$pid1" == "excite-server "* ]] || fail "PID 1 is not excite-server: $pid1"
 log "server healthy"
 
 # 4. Plant client in a second container.
 chmod 0777 "$out"
-podman run --rm --network "$net" --read-only -v "$out:/out" "$image" \
+podman run --rm --no-healthcheck --network "$net" --read-only -v "$out:/out" "$image" \
   excite-sim --server="$server:50051" \
   --config=/usr/local/share/excite/configs/pendulum.textproto --strategy=rec \
   --samples="$samples" --seed=1 --session_id=smoke --keep_session \
@@ -136,7 +139,7 @@ print(f"summary ok: final_rmse {rmse:.3f}, coverage {s['coverage_marginal']:.2f}
 PY
 
 # 5. The CLI sees the kept session.
-podman run --rm --network "$net" "$image" \
+podman run --rm --no-healthcheck --network "$net" "$image" \
   excite --server="$server:50051" sessions get smoke >"$out/get.txt" 2>&1 ||
   { cat "$out/get.txt" >&2; fail "excite sessions get failed"; }
 grep -q "^sample_count: $samples\$" "$out/get.txt" ||
@@ -147,20 +150,21 @@ stop_start=$SECONDS
 podman kill --signal TERM "$server" >/dev/null
 code=$(timeout 30 podman wait "$server") || fail "server did not stop within 30 s of SIGTERM"
 [ "$code" = 0 ] || fail "server exited with $code after SIGTERM (want 0)"
-podman logs "$server" 2>&1 | grep -q 'received SIGTERM' || fail "server did not log SIGTERM"
+podman logs "$server" >"$out/server.log" 2>&1
+grep -q 'received SIGTERM' "$out/server.log" || fail "server did not log SIGTERM"
 log "server stopped by SIGTERM in $((SECONDS - stop_start)) s, exit 0"
 
 # 7. The session survives on the volume; podman stop exits 0 as well.
-podman run -d --name "$server-2" --network "$net" --read-only \
-  -v "$vol:/var/lib/excite" "$image" >/dev/null
-podman run --rm --network "$net" "$image" excite-health --server="$server-2:50051" \
+podman run -d --name "$server-2" --network "$net" --read-only --health-interval=disable \
+  -v "$vol:/var/lib/excite" "$image" >/dev/null 2>>"$out/podman.log"
+podman run --rm --no-healthcheck --network "$net" "$image" excite-health --server="$server-2:50051" \
   --wait_s=60 >/dev/null || fail "restarted server never became healthy"
-podman run --rm --network "$net" "$image" \
+podman run --rm --no-healthcheck --network "$net" "$image" \
   excite --server="$server-2:50051" sessions get smoke >"$out/get2.txt" 2>&1 ||
   { cat "$out/get2.txt" >&2; fail "session lost after restart"; }
 grep -q "^sample_count: $samples\$" "$out/get2.txt" ||
   fail "restarted session has not $samples samples: $(cat "$out/get2.txt")"
-podman stop -t 20 "$server-2" >/dev/null
+podman stop -t 20 "$server-2" >/dev/null 2>>"$out/podman.log"
 code=$(podman inspect --format '{{.State.ExitCode}}' "$server-2")
 [ "$code" = 0 ] || fail "podman stop: server exited with $code (want 0)"
 log "restart kept the session; podman stop exit 0; PASS"
