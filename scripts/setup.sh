@@ -15,8 +15,8 @@ PACKAGES=(
   # Python client and its tests (Debian's /usr/bin/python3; nothing from PyPI)
   python3-grpcio python3-protobuf python3-numpy python3-pytest python3-yaml
   python3-matplotlib  # bench/paper: the paper-table runner's plots
-  # container smoke test (tests/container): podman with runc, a local base image
-  podman runc netavark aardvark-dns debootstrap
+  # container smoke test (tests/container): podman with runc, a local base image, compose
+  podman runc netavark aardvark-dns debootstrap podman-compose
 )
 
 missing=()

@@ -15,7 +15,10 @@
 #  5. the excite CLI from a third container sees the kept session;
 #  6. SIGTERM to the server: must exit 0 within the drain time and log it;
 #  7. a new server container on the same volume still has the session (durable
-#     store on the volume); podman stop (SIGTERM) again exits 0.
+#     store on the volume); podman stop (SIGTERM) again exits 0;
+#  8. deploy/compose.yaml with podman-compose: the server and both plant clients
+#     (10 samples each); both plants exit 0 and leave their summaries on the named
+#     volume; the server answers on the published host port; down -v.
 #
 # Environment: EXCITE_BASE_IMAGE (default localhost/debian:bookworm),
 # EXCITE_IMAGE (default localhost/excite:ci), EXCITE_SMOKE_SAMPLES (default 30),
@@ -47,7 +50,12 @@ fail() {
   done
   exit 1
 }
+compose() {
+  EXCITE_IMAGE="$image" EXCITE_SAMPLES=10 EXCITE_PORT="${host_port:-0}" \
+    podman-compose -p "$tag" -f deploy/compose.yaml "$@"
+}
 cleanup() {
+  if [ -n "${compose_up:-}" ]; then compose down -v >/dev/null 2>&1 || true; fi
   podman rm -f -t 0 "$server" "$server-2" >/dev/null 2>&1 || true
   podman volume rm -f "$vol" >/dev/null 2>&1 || true
   podman network rm -f "$net" >/dev/null 2>&1 || true
@@ -55,7 +63,7 @@ cleanup() {
 }
 trap cleanup EXIT
 
-for tool in podman runc debootstrap /usr/bin/python3; do
+for tool in podman runc debootstrap podman-compose /usr/bin/python3; do
   command -v "$tool" >/dev/null || fail "$tool is missing (run scripts/setup.sh)"
 done
 
@@ -167,4 +175,33 @@ grep -q "^sample_count: $samples\$" "$out/get2.txt" ||
 podman stop -t 20 "$server-2" >/dev/null 2>>"$out/podman.log"
 code=$(podman inspect --format '{{.State.ExitCode}}' "$server-2")
 [ "$code" = 0 ] || fail "podman stop: server exited with $code (want 0)"
-log "restart kept the session; podman stop exit 0; PASS"
+log "restart kept the session; podman stop exit 0"
+
+# 8. The compose stack.
+host_port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+compose_up=1
+compose up -d >"$out/compose.log" 2>&1 || { cat "$out/compose.log" >&2; fail "compose up failed"; }
+for plant in pendulum-rec pendulum-pa; do
+  code=$(timeout 300 podman wait "${tag}_${plant}_1") || fail "compose: $plant did not finish"
+  if [ "$code" != 0 ]; then
+    podman logs "${tag}_${plant}_1" >&2 || true
+    fail "compose: $plant exited with $code"
+  fi
+done
+mkdir -p "$out/compose" && chmod 0777 "$out/compose"
+podman run --rm --no-healthcheck -v "${tag}_excite-results:/results" -v "$out/compose:/out" \
+  "$image" sh -c 'cp /results/pendulum-rec.json /results/pendulum-pa.json /out/' ||
+  fail "compose: summaries missing on the excite-results volume"
+/usr/bin/python3 - "$out/compose" <<'PY' || fail "compose: summary check failed"
+import json, math, sys
+for strategy in ("rec", "pa"):
+    s = json.load(open(f"{sys.argv[1]}/pendulum-{strategy}.json"))
+    if s["strategy"] != strategy or s["samples"] != 10 or not math.isfinite(s["final_rmse"]):
+        sys.exit(f"compose summary {strategy}: {json.dumps(s)}")
+PY
+podman run --rm --no-healthcheck --network host "$image" \
+  excite-health --server="127.0.0.1:$host_port" >/dev/null ||
+  fail "compose: server not reachable on the published port $host_port"
+compose down -v >>"$out/compose.log" 2>&1 || { cat "$out/compose.log" >&2; fail "compose down failed"; }
+compose_up=
+log "compose stack: server and two plants ran, summaries on the volume; PASS"
