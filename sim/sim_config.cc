@@ -4,6 +4,7 @@
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "google/protobuf/io/tokenizer.h"
@@ -13,6 +14,14 @@
 
 namespace excite::sim {
 namespace {
+
+// Every strategy the server knows, by its command-line name.
+constexpr std::pair<const char*, v1::Strategy> kStrategyNames[] = {
+    {"rec", v1::STRATEGY_REC},       {"pa", v1::STRATEGY_PA},
+    {"greedy", v1::STRATEGY_GREEDY}, {"prbs", v1::STRATEGY_PRBS},
+    {"chirp", v1::STRATEGY_CHIRP},   {"random", v1::STRATEGY_RANDOM},
+    {"sep", v1::STRATEGY_SEP},
+};
 
 // Collects text-format parse errors into one message.
 class ErrorCollector : public google::protobuf::io::ErrorCollector {
@@ -133,22 +142,19 @@ void ApplyOverrides(const SimOverrides& overrides, v1::SimConfig* config) {
 }
 
 absl::StatusOr<v1::Strategy> ParseStrategy(absl::string_view name) {
-  if (name == "rec") return v1::STRATEGY_REC;
-  if (name == "pa") return v1::STRATEGY_PA;
-  if (name == "greedy") return v1::STRATEGY_GREEDY;
+  for (const auto& [known, strategy] : kStrategyNames) {
+    if (name == known) return strategy;
+  }
   return absl::InvalidArgumentError(
-      absl::StrCat("unknown strategy \"", name, "\" (expected rec, pa or greedy)"));
+      absl::StrCat("unknown strategy \"", name,
+                   "\" (expected rec, pa, greedy, prbs, chirp, random or sep)"));
 }
 
 std::string StrategyName(v1::Strategy strategy) {
-  switch (strategy) {
-    case v1::STRATEGY_PA:
-      return "pa";
-    case v1::STRATEGY_GREEDY:
-      return "greedy";
-    default:
-      return "rec";
+  for (const auto& [known, value] : kStrategyNames) {
+    if (strategy == value) return known;
   }
+  return "rec";
 }
 
 }  // namespace excite::sim

@@ -33,4 +33,21 @@ Eigen::VectorXd EntropyGradient(const Eigen::VectorXd& variance,
   return gradient;
 }
 
+double NegativeEntropyObjective::Evaluate(
+    const Eigen::MatrixXd& z, const Eigen::MatrixXd& /*mean*/,
+    const Eigen::MatrixXd& variance,
+    const std::vector<Eigen::MatrixXd>* /*mean_jacobians*/,
+    const std::vector<Eigen::MatrixXd>* variance_jacobians,
+    Eigen::MatrixXd* gradient) const {
+  if (gradient != nullptr) {
+    gradient->setZero(z.rows(), z.cols());
+    for (Eigen::Index i = 0; i < z.rows(); ++i) {
+      gradient->row(i) = -EntropyGradient(variance.row(i).transpose(),
+                                          (*variance_jacobians)[static_cast<size_t>(i)])
+                              .transpose();
+    }
+  }
+  return -Entropy(variance);
+}
+
 }  // namespace excite::plan

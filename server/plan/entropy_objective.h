@@ -2,6 +2,9 @@
 #define EXCITE_SERVER_PLAN_ENTROPY_OBJECTIVE_H_
 
 #include <Eigen/Dense>
+#include <vector>
+
+#include "server/plan/shooting_objective.h"
 
 namespace excite::plan {
 
@@ -20,6 +23,17 @@ double Entropy(const Eigen::MatrixXd& variances);
 // Returns a z_dim vector.
 Eigen::VectorXd EntropyGradient(const Eigen::VectorXd& variance,
                                 const Eigen::MatrixXd& variance_jacobian);
+
+// The paper's objective (trajopt_optim) as a ShootingObjective: minus the summed
+// entropy of the horizon, -Entropy(variance). Stateless.
+class NegativeEntropyObjective final : public ShootingObjective {
+ public:
+  double Evaluate(const Eigen::MatrixXd& z, const Eigen::MatrixXd& mean,
+                  const Eigen::MatrixXd& variance,
+                  const std::vector<Eigen::MatrixXd>* mean_jacobians,
+                  const std::vector<Eigen::MatrixXd>* variance_jacobians,
+                  Eigen::MatrixXd* gradient) const override;
+};
 
 }  // namespace excite::plan
 

@@ -12,6 +12,11 @@ namespace {
 // Ipopt treats |bound| >= 1e19 as infinite (nlp_lower/upper_bound_inf).
 constexpr double kInfinity = 2e19;
 
+const NegativeEntropyObjective& EntropyObjective() {
+  static const NegativeEntropyObjective* const objective = new NegativeEntropyObjective;
+  return *objective;
+}
+
 }  // namespace
 
 MultipleShootingNlp::MultipleShootingNlp(const gp::DynamicsPredictor& model,
@@ -21,7 +26,17 @@ MultipleShootingNlp::MultipleShootingNlp(const gp::DynamicsPredictor& model,
                                          const Eigen::MatrixXd& initial_inputs,
                                          const Eigen::MatrixXd& initial_states,
                                          StopFn stop, double feasibility_tolerance)
+    : MultipleShootingNlp(model, EntropyObjective(), x0, input_lower, input_upper,
+                          initial_inputs, initial_states, std::move(stop),
+                          feasibility_tolerance) {}
+
+MultipleShootingNlp::MultipleShootingNlp(
+    const gp::DynamicsPredictor& model, const ShootingObjective& objective,
+    const Eigen::VectorXd& x0, const Eigen::VectorXd& input_lower,
+    const Eigen::VectorXd& input_upper, const Eigen::MatrixXd& initial_inputs,
+    const Eigen::MatrixXd& initial_states, StopFn stop, double feasibility_tolerance)
     : model_(model),
+      objective_function_(objective),
       dx_(model.state_dim()),
       du_(model.input_dim()),
       horizon_(static_cast<int>(initial_inputs.rows())),
@@ -130,15 +145,20 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
     return false;
   }
 
-  const double entropy = Entropy(variance_);
-  objective_ = -entropy;
+  for (int i = 0; i < horizon_; ++i) {
+    if (!mean_jacobians_[i].allFinite() || !variance_jacobians_[i].allFinite()) {
+      return false;
+    }
+  }
+  objective_ = objective_function_.Evaluate(z_, mean_, variance_, &mean_jacobians_,
+                                            &variance_jacobians_, &z_gradient_);
+  if (!std::isfinite(objective_) || !z_gradient_.allFinite()) return false;
   gradient_.setZero(n);
   for (int i = 0; i < horizon_; ++i) {
-    if (!variance_jacobians_[i].allFinite()) return false;
-    const Eigen::VectorXd dh =
-        EntropyGradient(variance_.row(i).transpose(), variance_jacobians_[i]);
-    gradient_.segment(InputOffset(i), du_) -= dh.tail(du_);
-    if (i >= 1) gradient_.segment(StateOffset(i), dx_) -= dh.head(dx_);
+    gradient_.segment(InputOffset(i), du_) = z_gradient_.row(i).tail(du_).transpose();
+    if (i >= 1) {
+      gradient_.segment(StateOffset(i), dx_) = z_gradient_.row(i).head(dx_).transpose();
+    }
   }
 
   const int m = num_constraints();
@@ -153,7 +173,6 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
   values.reserve(static_cast<size_t>(m) * (1 + du_ + dx_));
   for (int i = 0; i + 1 < horizon_; ++i) {
     const Eigen::MatrixXd& jm = mean_jacobians_[i];
-    if (!jm.allFinite()) return false;
     for (int r = 0; r < dx_; ++r) {
       values.push_back(1.0);
       if (i >= 1) {
@@ -167,8 +186,8 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
   cache_finite_ = true;
 
   const double violation = m > 0 ? constraints_.cwiseAbs().maxCoeff() : 0.0;
-  if (violation <= feasibility_tolerance_ && entropy > best_feasible_entropy_) {
-    best_feasible_entropy_ = entropy;
+  if (violation <= feasibility_tolerance_ && objective_ < best_feasible_objective_) {
+    best_feasible_objective_ = objective_;
     best_feasible_ = w;
   }
   return true;

@@ -8,19 +8,23 @@
 #include <vector>
 
 #include "server/gp/dynamics_predictor.h"
+#include "server/plan/shooting_objective.h"
 
 namespace excite::plan {
 
-// The paper's problem (trajopt_optim) as an Ipopt NLP by direct multiple shooting:
-//   min_w  -sum_{i=0}^{M-1} H(x_i, u_i)
+// A horizon of M steps through the model mean as an Ipopt NLP by direct multiple
+// shooting:
+//   min_w  J(z_0, .., z_{M-1})       (a ShootingObjective; z_i = (x_i, u_i))
 //   s.t.   x_{i+1} - mean(x_i, u_i) = 0,  i = 0..M-2;   lower <= u_i <= upper,
-// with x_0 given. Decision vector w = (u_0, .., u_{M-1}, x_1, .., x_{M-1}), i.e.
+// with x_0 given. With NegativeEntropyObjective (the default constructor) this is
+// the paper's problem (trajopt_optim), J = -sum_i H(x_i, u_i); sep steers with
+// SteeringObjective. Decision vector w = (u_0, .., u_{M-1}, x_1, .., x_{M-1}), i.e.
 // n = M du + (M-1) dx variables and (M-1) dx constraints. First derivatives are
 // exact: all values and Jacobians at an iterate come from ONE batched
 // DynamicsPredictor::Predict call of M points (cached per iterate). No Hessian:
-// use hessian_approximation = limited-memory. The model must outlive the NLP.
-// Keeps the best feasible point it evaluated (max |g| <= feasibility_tolerance),
-// so a cut-short solve still has something good.
+// use hessian_approximation = limited-memory. The model and the objective must
+// outlive the NLP. Keeps the best feasible point it evaluated (max |g| <=
+// feasibility_tolerance, lowest J), so a cut-short solve still has something good.
 class MultipleShootingNlp final : public Ipopt::TNLP {
  public:
   // Polled once per Ipopt iteration; true stops the solve (User_Requested_Stop).
@@ -28,6 +32,14 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
 
   // initial_inputs: M x du (clipped into the bounds); initial_states: M x dx, row
   // 0 ignored (x_0 is `x0`), rows 1.. are the initial x_1..x_{M-1}.
+  MultipleShootingNlp(const gp::DynamicsPredictor& model,
+                      const ShootingObjective& objective, const Eigen::VectorXd& x0,
+                      const Eigen::VectorXd& input_lower,
+                      const Eigen::VectorXd& input_upper,
+                      const Eigen::MatrixXd& initial_inputs,
+                      const Eigen::MatrixXd& initial_states, StopFn stop = nullptr,
+                      double feasibility_tolerance = 1e-6);
+  // The paper's problem: objective = NegativeEntropyObjective.
   MultipleShootingNlp(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
                       const Eigen::VectorXd& input_lower,
                       const Eigen::VectorXd& input_upper,
@@ -46,9 +58,9 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   // The decision vector of the initial guess.
   Eigen::VectorXd StartingPoint() const;
 
-  // Best feasible point evaluated so far (empty if none) and its entropy sum.
+  // Best feasible point evaluated so far (empty if none) and its objective J.
   const Eigen::VectorXd& best_feasible() const { return best_feasible_; }
-  double best_feasible_entropy() const { return best_feasible_entropy_; }
+  double best_feasible_objective() const { return best_feasible_objective_; }
   // The point passed to finalize_solution (empty if never finalised).
   const Eigen::VectorXd& final_point() const { return final_point_; }
   int iterations() const { return iterations_; }
@@ -94,6 +106,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   bool Evaluate(const Ipopt::Number* w, bool new_x);
 
   const gp::DynamicsPredictor& model_;
+  const ShootingObjective& objective_function_;
   const int dx_;
   const int du_;
   const int horizon_;
@@ -111,6 +124,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   Eigen::VectorXd cached_w_;
   double objective_ = 0.0;
   Eigen::VectorXd gradient_;     // n
+  Eigen::MatrixXd z_gradient_;   // M x (dx + du): d J / d z_i
   Eigen::VectorXd constraints_;  // m
   Eigen::VectorXd jacobian_;     // nnz, in the order of the sparsity structure
   Eigen::MatrixXd z_;            // M x (dx + du)
@@ -120,7 +134,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   std::vector<Eigen::MatrixXd> variance_jacobians_;
 
   Eigen::VectorXd best_feasible_;
-  double best_feasible_entropy_ = -std::numeric_limits<double>::infinity();
+  double best_feasible_objective_ = std::numeric_limits<double>::infinity();
   Eigen::VectorXd final_point_;
   int iterations_ = 0;
   bool stopped_ = false;

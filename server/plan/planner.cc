@@ -1,7 +1,7 @@
 #include "server/plan/planner.h"
 
-#include <IpTNLP.hpp>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -10,9 +10,12 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "server/plan/chirp_signal.h"
 #include "server/plan/entropy_objective.h"
-#include "server/plan/ipopt_solve.h"
-#include "server/plan/multiple_shooting_nlp.h"
+#include "server/plan/prbs_signal.h"
+#include "server/plan/random_signal.h"
+#include "server/plan/sep_planner.h"
+#include "server/plan/shooting_solver.h"
 
 namespace excite::plan {
 namespace {
@@ -28,67 +31,34 @@ using Clock = std::chrono::steady_clock;
 // i.e. it is tighter, not looser.
 constexpr double kObjectiveScaling = 100.0;
 
-// A candidate plan: inputs rolled out exactly through the model mean.
-struct Candidate {
-  Eigen::MatrixXd inputs;
-  Eigen::MatrixXd states;
-  Eigen::MatrixXd variances;
-  double entropy = -std::numeric_limits<double>::infinity();
-  int start = -1;  // index of the start it came from
-  bool valid = false;
-};
-
-// Rolls `inputs` (M x du) out from x0 through the model mean: states x_0..x_{M-1}
-// and the variances at (x_i, u_i). M sequential one-point Predict calls.
-Candidate Rollout(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
-                  const Eigen::MatrixXd& inputs) {
-  const int horizon = static_cast<int>(inputs.rows());
-  const int dx = model.state_dim();
-  const int du = model.input_dim();
-  Candidate c;
-  c.inputs = inputs;
-  c.states.resize(horizon, dx);
-  c.variances.resize(horizon, dx);
-  Eigen::MatrixXd z(1, dx + du);
-  Eigen::MatrixXd mean;
-  Eigen::MatrixXd variance;
-  Eigen::VectorXd x = x0;
-  for (int i = 0; i < horizon; ++i) {
-    c.states.row(i) = x.transpose();
-    z.row(0).head(dx) = x.transpose();
-    z.row(0).tail(du) = inputs.row(i);
-    model.Predict(z, &mean, &variance, nullptr, nullptr);
-    if (mean.rows() != 1 || mean.cols() != dx || variance.rows() != 1 ||
-        variance.cols() != dx) {
-      return c;
-    }
-    c.variances.row(i) = variance.row(0);
-    x = mean.row(0).transpose();
-  }
-  c.valid = c.states.allFinite() && c.variances.allFinite();
-  if (c.valid) c.entropy = Entropy(c.variances);
-  return c;
-}
-
-PlanStatus FromIpopt(Ipopt::ApplicationReturnStatus status) {
-  switch (status) {
-    case Ipopt::Solve_Succeeded:
-    case Ipopt::Solved_To_Acceptable_Level:
-    case Ipopt::Feasible_Point_Found:
-      return PlanStatus::kConverged;
-    case Ipopt::Maximum_Iterations_Exceeded:
-      return PlanStatus::kIterationLimit;
-    case Ipopt::User_Requested_Stop:
-    case Ipopt::Maximum_CpuTime_Exceeded:
-      return PlanStatus::kTimeLimit;
-    default:
-      return PlanStatus::kNotConverged;
-  }
-}
-
 // Uniform in [0, 1) from 53 random bits: the same on every platform.
 double Uniform01(std::mt19937_64& rng) {
   return static_cast<double>(rng() >> 11) * 0x1.0p-53;
+}
+
+absl::Status ValidateSignal(const SignalOptions& signal, Strategy strategy) {
+  switch (strategy) {
+    case Strategy::kPrbs:
+      if (signal.prbs_min_hold < 1) {
+        return absl::InvalidArgumentError("prbs_min_hold must be >= 1");
+      }
+      break;
+    case Strategy::kChirp:
+      if (signal.chirp_period < 1 || !std::isfinite(signal.chirp_start_frequency) ||
+          !std::isfinite(signal.chirp_end_frequency)) {
+        return absl::InvalidArgumentError(
+            "chirp_period must be >= 1 and the chirp frequencies finite");
+      }
+      break;
+    case Strategy::kRandom:
+      if (signal.random_hold < 1) {
+        return absl::InvalidArgumentError("random_hold must be >= 1");
+      }
+      break;
+    default:
+      break;
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace
@@ -96,7 +66,7 @@ double Uniform01(std::mt19937_64& rng) {
 Planner::Planner(PlanOptions options) : options_(std::move(options)) {}
 
 absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
-                                         const Eigen::VectorXd& x0,
+                                         const Eigen::VectorXd& x0, int64_t time_index,
                                          const PlanLimits& limits, PlanSummary* summary) {
   const Clock::time_point begin = Clock::now();
   const int dx = model.state_dim();
@@ -124,6 +94,10 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
     return absl::InvalidArgumentError(
         "max_iterations and restarts must be >= 0, tolerance > 0");
   }
+  if (time_index < 0) return absl::InvalidArgumentError("time_index must be >= 0");
+  if (absl::Status s = ValidateSignal(options_.signal, options_.strategy); !s.ok()) {
+    return s;
+  }
   const auto cancelled = [&limits] { return limits.cancelled && limits.cancelled(); };
   const auto past_deadline = [&limits] {
     return limits.deadline.has_value() && Clock::now() >= *limits.deadline;
@@ -133,10 +107,68 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
   // cancelled() is already true here; a later cancel (or the deadline) returns
   // the best plan so far with status kTimeLimit.
   if (cancelled()) return absl::CancelledError("planning cancelled before it started");
+  const std::function<bool()> stop = [&] { return cancelled() || past_deadline(); };
+  const uint64_t call = calls_++;
 
+  PlanSummary local;
+  absl::StatusOr<Plan> plan;
+  if (IsModelFree(options_.strategy)) {
+    plan = PlanSignal(dx, time_index);
+    local.status = PlanStatus::kConverged;
+  } else if (options_.strategy == Strategy::kSep) {
+    std::seed_seq seq{static_cast<uint32_t>(options_.seed),
+                      static_cast<uint32_t>(options_.seed >> 32),
+                      static_cast<uint32_t>(call), static_cast<uint32_t>(call >> 32)};
+    std::mt19937_64 rng(seq);
+    plan = PlanSeparated(model, x0, options_, rng(), stop, &local);
+  } else {
+    plan = PlanEntropy(model, x0, call, stop, &local);
+  }
+  if (!plan.ok()) return plan.status();
+  local.wall_time_ms =
+      std::chrono::duration<double, std::milli>(Clock::now() - begin).count();
+  if (summary != nullptr) *summary = local;
+  return plan;
+}
+
+Plan Planner::PlanSignal(int state_dim, int64_t time_index) const {
+  const SignalOptions& signal = options_.signal;
+  const int horizon = options_.horizon;
+  Plan plan;
+  switch (options_.strategy) {
+    case Strategy::kPrbs:
+      plan.inputs = PrbsSignal(options_.input_lower, options_.input_upper,
+                               signal.prbs_min_hold, options_.seed, time_index, horizon);
+      break;
+    case Strategy::kChirp: {
+      ChirpParams params;
+      params.start_frequency = signal.chirp_start_frequency;
+      params.end_frequency = signal.chirp_end_frequency;
+      params.period = signal.chirp_period;
+      plan.inputs = ChirpSignal(options_.input_lower, options_.input_upper, params,
+                                time_index, horizon);
+      break;
+    }
+    default:
+      plan.inputs = RandomSignal(options_.input_lower, options_.input_upper,
+                                 signal.random_hold, options_.seed, time_index, horizon);
+      break;
+  }
+  plan.states.resize(0, state_dim);
+  plan.variances.resize(0, state_dim);
+  plan.apply_count = static_cast<int>(plan.inputs.rows());
+  return plan;
+}
+
+absl::StatusOr<Plan> Planner::PlanEntropy(const gp::DynamicsPredictor& model,
+                                          const Eigen::VectorXd& x0, uint64_t call,
+                                          const std::function<bool()>& stop,
+                                          PlanSummary* summary) {
+  const int du = model.input_dim();
+  const Eigen::VectorXd& lower = options_.input_lower;
+  const Eigen::VectorXd& upper = options_.input_upper;
   const int horizon = options_.strategy == Strategy::kGreedy ? 1 : options_.horizon;
   const int apply_count = options_.strategy == Strategy::kPa ? horizon : 1;
-  const uint64_t call = calls_++;
 
   // Starts: warm start (previous plan shifted by its apply_count, padded with
   // its last input), a mid-bound start on the first call, then random ones.
@@ -167,74 +199,28 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
     starts.push_back(std::move(random));
   }
 
-  // Every start, rolled out, is already a feasible plan: keep the best.
-  Candidate best;
-  std::vector<Candidate> initial;
-  initial.reserve(starts.size());
-  for (size_t s = 0; s < starts.size(); ++s) {
-    starts[s] = starts[s]
-                    .cwiseMax(lower.transpose().replicate(horizon, 1))
-                    .cwiseMin(upper.transpose().replicate(horizon, 1));
-    Candidate c = Rollout(model, x0, starts[s]);
-    c.start = static_cast<int>(s);
-    if (c.valid && c.entropy > best.entropy) best = c;
-    initial.push_back(std::move(c));
-  }
-
-  PlanSummary local;
-  std::vector<PlanStatus> start_status(starts.size(), PlanStatus::kNotConverged);
-  bool stopped = false;
-  const Eigen::MatrixXd lower_rows = lower.transpose().replicate(horizon, 1);
-  const Eigen::MatrixXd upper_rows = upper.transpose().replicate(horizon, 1);
-  for (size_t s = 0; s < starts.size(); ++s) {
-    if (cancelled() || past_deadline()) {
-      stopped = true;
-      break;
-    }
-    if (!initial[s].valid) continue;  // the model is not finite along this start
-    Ipopt::SmartPtr<MultipleShootingNlp> nlp =
-        new MultipleShootingNlp(model, x0, lower, upper, starts[s], initial[s].states,
-                                [&] { return cancelled() || past_deadline(); });
-    IpoptSettings settings;
-    settings.max_iterations = options_.max_iterations;
-    settings.tolerance = options_.tolerance;
-    settings.objective_scaling = kObjectiveScaling;
-    const IpoptOutcome outcome =
-        SolveTnlp(Ipopt::SmartPtr<Ipopt::TNLP>(Ipopt::GetRawPtr(nlp)), settings);
-    ++local.starts;
-    local.iterations += nlp->iterations();
-    start_status[s] = FromIpopt(outcome.status);
-    for (const Eigen::VectorXd* w : {&nlp->best_feasible(), &nlp->final_point()}) {
-      if (w->size() != nlp->num_variables() || !w->allFinite()) continue;
-      if (w == &nlp->final_point() && *w == nlp->best_feasible()) continue;  // done
-      const Eigen::MatrixXd inputs =
-          nlp->InputsOf(*w).cwiseMax(lower_rows).cwiseMin(upper_rows);
-      Candidate c = Rollout(model, x0, inputs);
-      c.start = static_cast<int>(s);
-      if (c.valid && c.entropy > best.entropy) best = std::move(c);
-    }
-    if (nlp->stopped()) {
-      stopped = true;
-      break;
-    }
-  }
-
-  if (!best.valid) {
+  ShootingSettings settings;
+  settings.max_iterations = options_.max_iterations;
+  settings.tolerance = options_.tolerance;
+  settings.objective_scaling = kObjectiveScaling;
+  const NegativeEntropyObjective objective;
+  ShootingResult result = SolveFromStarts(model, objective, x0, lower, upper,
+                                          std::move(starts), settings, stop);
+  if (!result.best.valid) {
     return absl::InternalError(
         "the model's predictions are not finite along any start: no plan");
   }
   Plan plan;
-  plan.inputs = std::move(best.inputs);
-  plan.states = std::move(best.states);
-  plan.variances = std::move(best.variances);
+  plan.inputs = std::move(result.best.inputs);
+  plan.states = std::move(result.best.states);
+  plan.variances = std::move(result.best.variances);
   plan.apply_count = apply_count;
   previous_ = plan;
 
-  local.status = stopped ? PlanStatus::kTimeLimit : start_status[best.start];
-  local.objective = best.entropy;
-  local.wall_time_ms =
-      std::chrono::duration<double, std::milli>(Clock::now() - begin).count();
-  if (summary != nullptr) *summary = local;
+  summary->status = result.status;
+  summary->iterations = result.iterations;
+  summary->starts = result.starts;
+  summary->objective = Entropy(plan.variances);
   return plan;
 }
 

@@ -1,78 +1,62 @@
 #ifndef EXCITE_SERVER_PLAN_PLANNER_H_
 #define EXCITE_SERVER_PLAN_PLANNER_H_
 
-#include <chrono>
+#include <Eigen/Dense>
 #include <cstdint>
 #include <functional>
 #include <optional>
 
-#include <Eigen/Dense>
-
 #include "absl/status/statusor.h"
 #include "server/gp/dynamics_predictor.h"
+#include "server/plan/plan_types.h"
 
 namespace excite::plan {
 
-enum class Strategy {
-  kRec,     // plan M, apply the first input, replan
-  kPa,      // plan M, apply all M, replan
-  kGreedy,  // rec with M = 1
-};
-
-// Options of one session's planner. Defaults documented here are the API's.
-struct PlanOptions {
-  Strategy strategy = Strategy::kRec;
-  int horizon = 15;  // M; forced to 1 for kGreedy
-  Eigen::VectorXd input_lower;
-  Eigen::VectorXd input_upper;
-  int max_iterations = 100;  // Ipopt iterations per start
-  int restarts = 1;          // random starts on top of the warm start
-  double tolerance = 1e-4;   // Ipopt tol
-  uint64_t seed = 0;
-};
-
-// Limits of one call: the best plan so far is returned when one is hit.
-struct PlanLimits {
-  std::optional<std::chrono::steady_clock::time_point> deadline;
-  // Polled between Ipopt iterations; true stops the solve (CANCELLED).
-  std::function<bool()> cancelled;
-};
-
-enum class PlanStatus { kConverged, kTimeLimit, kIterationLimit, kNotConverged };
-
-struct Plan {
-  Eigen::MatrixXd inputs;     // M x input_dim: u_k .. u_{k+M-1}
-  Eigen::MatrixXd states;     // M x state_dim: x_k .. x_{k+M-1} under the GP mean
-  Eigen::MatrixXd variances;  // M x state_dim: latent variance at (x_{k+i}, u_{k+i})
-  int apply_count = 1;        // inputs to apply before planning again
-};
-
-struct PlanSummary {
-  PlanStatus status = PlanStatus::kNotConverged;
-  int iterations = 0;      // summed over starts
-  int starts = 0;
-  double objective = 0.0;  // summed differential entropy of the returned plan (nats)
-  double wall_time_ms = 0.0;
-};
-
-// Solves the paper's problem (trajopt_optim) by direct multiple shooting with
-// Ipopt: maximise sum_i H(x_i, u_i) s.t. x_{i+1} = mean(x_i, u_i), u_i in bounds.
-// Keeps the previous plan to warm-start the next call (shifted by its
-// apply_count). Ipopt solves are serialised process-wide (MUMPS in Ipopt 3.11 is
-// not thread-safe). Not thread-safe itself: one session's calls are serialised.
+// One session's planner: options in (PlanOptions, plan_types.h), a plan and a
+// summary out. Dispatches on options.strategy:
+//  - kRec, kPa, kGreedy: the paper's problem (trajopt_optim) by direct multiple
+//    shooting with Ipopt: maximise sum_i H(x_i, u_i) s.t. x_{i+1} = mean(x_i, u_i),
+//    u_i in bounds. Keeps the previous plan to warm-start the next call (shifted by
+//    its apply_count). apply_count: 1 (rec, greedy) or M (pa).
+//  - kPrbs, kChirp, kRandom: the open-loop signals (prbs_signal.h,
+//    chirp_signal.h, random_signal.h) at samples time_index .. time_index + M - 1;
+//    the model is never evaluated (it need not be fitted), states/variances have 0
+//    rows, apply_count = M, the summary reports kConverged and objective 0.
+//  - kSep: separated search and control (sep_planner.h); needs state bounds.
+// Ipopt solves are serialised process-wide (MUMPS in Ipopt 3.11 is not
+// thread-safe). Not thread-safe itself: one session's calls are serialised.
 class Planner {
  public:
   explicit Planner(PlanOptions options);
 
-  // INVALID_ARGUMENT if x0 has the wrong size or is not finite, CANCELLED if
-  // limits.cancelled fired before any feasible plan existed.
+  // x0: the current state; time_index: its sample index k (>= 0), the position of
+  // the first returned input in the model-free signals (the session passes the
+  // number of samples it holds, so a restarted session continues the signal).
+  // INVALID_ARGUMENT if x0 has the wrong size or is not finite, if the options are
+  // invalid (input bounds, horizon, iterations, signal parameters, sep's state
+  // bounds) or time_index < 0; CANCELLED if limits.cancelled fired before any
+  // feasible plan existed.
+  absl::StatusOr<Plan> PlanInputs(const gp::DynamicsPredictor& model,
+                                  const Eigen::VectorXd& x0, int64_t time_index,
+                                  const PlanLimits& limits, PlanSummary* summary);
+  // The same with time_index 0 (for the model-based strategies it is unused).
   absl::StatusOr<Plan> PlanInputs(const gp::DynamicsPredictor& model,
                                   const Eigen::VectorXd& x0, const PlanLimits& limits,
-                                  PlanSummary* summary);
+                                  PlanSummary* summary) {
+    return PlanInputs(model, x0, 0, limits, summary);
+  }
 
   const PlanOptions& options() const { return options_; }
 
  private:
+  // rec, pa and greedy.
+  absl::StatusOr<Plan> PlanEntropy(const gp::DynamicsPredictor& model,
+                                   const Eigen::VectorXd& x0, uint64_t call,
+                                   const std::function<bool()>& stop,
+                                   PlanSummary* summary);
+  // prbs, chirp and random.
+  Plan PlanSignal(int state_dim, int64_t time_index) const;
+
   PlanOptions options_;
   std::optional<Plan> previous_;
   uint64_t calls_ = 0;

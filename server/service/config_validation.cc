@@ -179,6 +179,115 @@ absl::Status ValidatePlanner(absl::string_view path, v1::PlannerConfig* planner)
   return absl::OkStatus();
 }
 
+// A frequency in cycles per sample: 0 means the default, otherwise finite in
+// (0, 0.5] (0.5 is the Nyquist frequency).
+absl::Status FrequencyWithDefault(absl::string_view field, double* value, double def) {
+  if (*value == 0.0) *value = def;
+  if (!std::isfinite(*value) || !(*value > 0.0) || *value > 0.5) {
+    return Invalid(field, absl::StrCat("must be in (0, 0.5] cycles per sample (0 for the "
+                                       "default ",
+                                       def, "), got ", *value));
+  }
+  return absl::OkStatus();
+}
+
+// SignalConfig: every set field is checked whatever the strategy; the defaults are
+// filled in only for the fields the session's strategy uses.
+absl::Status ValidateSignal(absl::string_view path, v1::SessionConfig* config) {
+  const v1::Strategy strategy = config->strategy();
+  const bool prbs = strategy == v1::STRATEGY_PRBS;
+  const bool chirp = strategy == v1::STRATEGY_CHIRP;
+  const bool random = strategy == v1::STRATEGY_RANDOM;
+  if (!config->has_signal() && !prbs && !chirp && !random) return absl::OkStatus();
+  const std::string spath = Field(path, "signal");
+  const plan::SignalOptions defaults;
+  v1::SignalConfig filled = config->signal();
+  int32_t value = filled.prbs_min_hold();
+  if (absl::Status s = IntWithDefault(Field(spath, "prbs_min_hold"), &value,
+                                      defaults.prbs_min_hold, 1, 1000000);
+      !s.ok()) {
+    return s;
+  }
+  filled.set_prbs_min_hold(value);
+  double frequency = filled.chirp_start_frequency();
+  if (absl::Status s = FrequencyWithDefault(Field(spath, "chirp_start_frequency"),
+                                            &frequency, defaults.chirp_start_frequency);
+      !s.ok()) {
+    return s;
+  }
+  filled.set_chirp_start_frequency(frequency);
+  frequency = filled.chirp_end_frequency();
+  if (absl::Status s = FrequencyWithDefault(Field(spath, "chirp_end_frequency"),
+                                            &frequency, defaults.chirp_end_frequency);
+      !s.ok()) {
+    return s;
+  }
+  filled.set_chirp_end_frequency(frequency);
+  value = filled.chirp_period();
+  if (absl::Status s = IntWithDefault(Field(spath, "chirp_period"), &value,
+                                      defaults.chirp_period, 1, 1000000);
+      !s.ok()) {
+    return s;
+  }
+  filled.set_chirp_period(value);
+  value = filled.random_hold();
+  if (absl::Status s = IntWithDefault(Field(spath, "random_hold"), &value,
+                                      defaults.random_hold, 1, 1000000);
+      !s.ok()) {
+    return s;
+  }
+  filled.set_random_hold(value);
+  v1::SignalConfig* signal = config->mutable_signal();
+  if (prbs) signal->set_prbs_min_hold(filled.prbs_min_hold());
+  if (chirp) {
+    signal->set_chirp_start_frequency(filled.chirp_start_frequency());
+    signal->set_chirp_end_frequency(filled.chirp_end_frequency());
+    signal->set_chirp_period(filled.chirp_period());
+  }
+  if (random) signal->set_random_hold(filled.random_hold());
+  return absl::OkStatus();
+}
+
+// SepConfig, and sep's need for state_bounds. Set fields are checked whatever the
+// strategy; defaults are filled in for STRATEGY_SEP only.
+absl::Status ValidateSep(absl::string_view path, v1::SessionConfig* config) {
+  const bool sep = config->strategy() == v1::STRATEGY_SEP;
+  if (sep && config->state_bounds_size() != config->state_dim()) {
+    return Invalid(Field(path, "state_bounds"),
+                   absl::StrCat("STRATEGY_SEP needs state_dim (", config->state_dim(),
+                                ") intervals (its search box is state_bounds x "
+                                "input_bounds), got ",
+                                config->state_bounds_size()));
+  }
+  if (!config->has_sep() && !sep) return absl::OkStatus();
+  const std::string spath = Field(path, "sep");
+  const plan::SepOptions defaults;
+  v1::SepConfig filled = config->sep();
+  int32_t value = filled.search_starts();
+  if (absl::Status s = IntWithDefault(Field(spath, "search_starts"), &value,
+                                      defaults.search_starts, 1, 100);
+      !s.ok()) {
+    return s;
+  }
+  filled.set_search_starts(value);
+  value = filled.search_samples();
+  if (absl::Status s = IntWithDefault(Field(spath, "search_samples"), &value,
+                                      defaults.search_samples, 1, 100000);
+      !s.ok()) {
+    return s;
+  }
+  filled.set_search_samples(value);
+  value = filled.search_iterations();
+  if (absl::Status s = IntWithDefault(Field(spath, "search_iterations"), &value,
+                                      defaults.search_iterations, 1, 10000);
+      !s.ok()) {
+    return s;
+  }
+  filled.set_search_iterations(value);
+  if (sep) *config->mutable_sep() = filled;
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view path) {
@@ -241,8 +350,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
   if (config->strategy() == v1::STRATEGY_UNSPECIFIED) {
     config->set_strategy(v1::STRATEGY_REC);
   }
-  if (config->strategy() != v1::STRATEGY_REC && config->strategy() != v1::STRATEGY_PA &&
-      config->strategy() != v1::STRATEGY_GREEDY) {
+  if (!v1::Strategy_IsValid(config->strategy())) {
     return Invalid(Field(path, "strategy"),
                    absl::StrCat("unknown value ", static_cast<int>(config->strategy())));
   }
@@ -279,6 +387,8 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
   }
   refit->set_min_samples(min_samples);
 
+  if (absl::Status s = ValidateSignal(path, config); !s.ok()) return s;
+  if (absl::Status s = ValidateSep(path, config); !s.ok()) return s;
   return ValidatePlanner(path, config->mutable_planner());
 }
 

@@ -353,7 +353,11 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
     std::function<bool()> cancelled) {
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
-  if (absl::Status s = EnsureFitted(); !s.ok()) return s;
+  // prbs, chirp and random never evaluate the model: no data needed, no refit.
+  const bool model_free = plan::IsModelFree(planner_.options().strategy);
+  if (!model_free) {
+    if (absl::Status s = EnsureFitted(); !s.ok()) return s;
+  }
   if (cancelled && cancelled()) {
     return absl::CancelledError("PlanInputs was cancelled by the client");
   }
@@ -369,7 +373,7 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
   plan::PlanSummary summary;
   absl::StatusOr<plan::Plan> plan;
   try {
-    plan = planner_.PlanInputs(model_, x0, limits, &summary);
+    plan = planner_.PlanInputs(model_, x0, sample_count_, limits, &summary);
   } catch (const std::exception& e) {
     plan = InternalFromException("planner", e);
   }
@@ -384,10 +388,11 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
                                             " failed: ", plan.status().ToString()));
   }
   const int horizon = static_cast<int>(plan->inputs.rows());
+  const int predicted = model_free ? 0 : horizon;  // model-free: no predictions
   if (horizon < 1 || plan->inputs.cols() != config_.input_dim() ||
-      plan->states.rows() != horizon || plan->states.cols() != config_.state_dim() ||
-      plan->variances.rows() != horizon ||
-      plan->variances.cols() != config_.state_dim()) {
+      plan->states.rows() != predicted || plan->variances.rows() != predicted ||
+      (predicted > 0 && (plan->states.cols() != config_.state_dim() ||
+                         plan->variances.cols() != config_.state_dim()))) {
     return absl::InternalError(absl::StrCat("planning for session ", name_,
                                             " returned a plan of the wrong shape"));
   }

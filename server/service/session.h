@@ -29,7 +29,8 @@ namespace excite::service {
 // different sessions run in parallel. Describe() never waits for them: it reads
 // a summary refreshed at the end of each call.
 //
-// Refit is lazy: Predict/PlanInputs refit first when the model was never fitted,
+// Refit is lazy: Predict/PlanInputs (PlanInputs only for the strategies that use
+// the model) refit first when the model was never fitted,
 // or when kernel.fit is on, refit.never is off and at least refit.every_samples
 // samples arrived since the last fit. After a refit the hyperparameters are saved
 // in the store (a failure to save is logged, not returned: they are a cache).
@@ -75,7 +76,10 @@ class Session {
   // Plans from `state` (checked with ValidatePlanState) within `deadline`,
   // polling `cancelled`. DEADLINE_EXCEEDED if the deadline passed before a plan
   // existed, CANCELLED if cancelled, FAILED_PRECONDITION before
-  // refit.min_samples samples.
+  // refit.min_samples samples. The model-free strategies (prbs, chirp, random)
+  // neither need data nor refit: they return the next `horizon` samples of their
+  // signal, starting at time index = the number of samples the session holds, and
+  // no predicted states or variances.
   absl::StatusOr<v1::PlanInputsResponse> PlanInputs(
       const v1::PlanInputsRequest& request,
       std::chrono::steady_clock::time_point deadline, std::function<bool()> cancelled);

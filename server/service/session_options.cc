@@ -71,6 +71,18 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
     case v1::STRATEGY_GREEDY:
       options.strategy = plan::Strategy::kGreedy;
       break;
+    case v1::STRATEGY_PRBS:
+      options.strategy = plan::Strategy::kPrbs;
+      break;
+    case v1::STRATEGY_CHIRP:
+      options.strategy = plan::Strategy::kChirp;
+      break;
+    case v1::STRATEGY_RANDOM:
+      options.strategy = plan::Strategy::kRandom;
+      break;
+    case v1::STRATEGY_SEP:
+      options.strategy = plan::Strategy::kSep;
+      break;
     default:
       options.strategy = plan::Strategy::kRec;
       break;
@@ -82,10 +94,36 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
     options.input_lower(i) = config.input_bounds(i).lower();
     options.input_upper(i) = config.input_bounds(i).upper();
   }
+  if (config.state_bounds_size() == config.state_dim()) {
+    options.state_lower.resize(config.state_dim());
+    options.state_upper.resize(config.state_dim());
+    for (int i = 0; i < config.state_bounds_size(); ++i) {
+      options.state_lower(i) = config.state_bounds(i).lower();
+      options.state_upper(i) = config.state_bounds(i).upper();
+    }
+  }
   options.max_iterations = config.planner().max_iterations();
   options.restarts = config.planner().restarts();
   options.tolerance = config.planner().tolerance();
   options.seed = config.seed();
+  // Unset (0) parameters of a strategy that does not use them keep the engine's
+  // defaults; validation filled in those of the session's strategy.
+  const v1::SignalConfig& signal = config.signal();
+  if (signal.prbs_min_hold() != 0) options.signal.prbs_min_hold = signal.prbs_min_hold();
+  if (signal.chirp_start_frequency() != 0.0) {
+    options.signal.chirp_start_frequency = signal.chirp_start_frequency();
+  }
+  if (signal.chirp_end_frequency() != 0.0) {
+    options.signal.chirp_end_frequency = signal.chirp_end_frequency();
+  }
+  if (signal.chirp_period() != 0) options.signal.chirp_period = signal.chirp_period();
+  if (signal.random_hold() != 0) options.signal.random_hold = signal.random_hold();
+  const v1::SepConfig& sep = config.sep();
+  if (sep.search_starts() != 0) options.sep.search_starts = sep.search_starts();
+  if (sep.search_samples() != 0) options.sep.search_samples = sep.search_samples();
+  if (sep.search_iterations() != 0) {
+    options.sep.search_iterations = sep.search_iterations();
+  }
   return options;
 }
 

@@ -16,8 +16,9 @@ namespace excite::service {
 // state_bounds) and input_bounds.
 gp::DynamicsModelOptions ModelOptionsFromConfig(const v1::SessionConfig& config);
 
-// Planner options: strategy, horizon, input bounds, Ipopt iterations, restarts,
-// tolerance, seed.
+// Planner options: strategy, horizon, input bounds, state bounds (when there are
+// state_dim of them), Ipopt iterations, restarts, tolerance, seed, signal and sep
+// parameters (0 = the engine's default).
 plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config);
 
 // proto <-> engine hyperparameters (data units).

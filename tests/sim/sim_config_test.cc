@@ -173,7 +173,19 @@ TEST(SimConfigTest, StrategyNames) {
   EXPECT_EQ(*ParseStrategy("rec"), v1::STRATEGY_REC);
   EXPECT_EQ(*ParseStrategy("pa"), v1::STRATEGY_PA);
   EXPECT_EQ(*ParseStrategy("greedy"), v1::STRATEGY_GREEDY);
-  EXPECT_EQ(ParseStrategy("sep").status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(*ParseStrategy("prbs"), v1::STRATEGY_PRBS);
+  EXPECT_EQ(*ParseStrategy("chirp"), v1::STRATEGY_CHIRP);
+  EXPECT_EQ(*ParseStrategy("random"), v1::STRATEGY_RANDOM);
+  EXPECT_EQ(*ParseStrategy("sep"), v1::STRATEGY_SEP);
+  EXPECT_EQ(ParseStrategy("SEP").status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ParseStrategy("p&a").status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ParseStrategy("").status().code(), absl::StatusCode::kInvalidArgument);
+  // Every name round-trips.
+  for (const char* name : {"rec", "pa", "greedy", "prbs", "chirp", "random", "sep"}) {
+    absl::StatusOr<v1::Strategy> strategy = ParseStrategy(name);
+    ASSERT_TRUE(strategy.ok()) << name;
+    EXPECT_EQ(StrategyName(*strategy), name);
+  }
   EXPECT_EQ(StrategyName(v1::STRATEGY_PA), "pa");
   EXPECT_EQ(StrategyName(v1::STRATEGY_UNSPECIFIED), "rec");
 }

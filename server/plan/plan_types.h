@@ -1,0 +1,102 @@
+#ifndef EXCITE_SERVER_PLAN_PLAN_TYPES_H_
+#define EXCITE_SERVER_PLAN_PLAN_TYPES_H_
+
+#include <Eigen/Dense>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <optional>
+
+namespace excite::plan {
+
+// The exploration strategies (paper, Sections 4-6). rec, pa, greedy and sep use
+// the model; prbs, chirp and random are open-loop signals that need neither a model
+// nor data.
+enum class Strategy {
+  kRec,     // plan M, apply the first input, replan
+  kPa,      // plan M, apply all M, replan
+  kGreedy,  // rec with M = 1
+  kPrbs,    // pseudo-random binary sequence between the input bounds
+  kChirp,   // linear swept-frequency sine between the input bounds
+  kRandom,  // uniform random inputs held for a number of samples
+  kSep,     // separated search (argmax H over X x U) and control (steer, apply u*)
+};
+
+// True for the strategies that never evaluate the model (prbs, chirp, random).
+inline bool IsModelFree(Strategy strategy) {
+  return strategy == Strategy::kPrbs || strategy == Strategy::kChirp ||
+         strategy == Strategy::kRandom;
+}
+
+// Parameters of the open-loop signals. Time is in samples (the server does not
+// know the plant's sampling time), frequencies in cycles per sample.
+struct SignalOptions {
+  int prbs_min_hold = 5;                // samples per PRBS clock period (>= 1)
+  double chirp_start_frequency = 0.01;  // cycles/sample at the start of a sweep
+  double chirp_end_frequency = 0.2;     // cycles/sample at the end of a sweep
+  int chirp_period = 200;               // samples per sweep (the sweep repeats)
+  int random_hold = 1;                  // samples each random input is held (>= 1)
+};
+
+// Parameters of sep's search for z* = argmax H(z) over the box state x input
+// bounds (L-BFGS-B, multi-start). The steering uses PlanOptions' horizon (at most
+// M steering steps), max_iterations, restarts and tolerance.
+struct SepOptions {
+  int search_starts = 4;       // L-BFGS-B starts (the first: best random sample)
+  int search_samples = 256;    // uniform random samples the first start is picked from
+  int search_iterations = 50;  // L-BFGS-B iterations per start
+};
+
+// Options of one session's planner. Defaults documented here are the API's.
+struct PlanOptions {
+  Strategy strategy = Strategy::kRec;
+  int horizon = 15;  // M; forced to 1 for kGreedy
+  Eigen::VectorXd input_lower;
+  Eigen::VectorXd input_upper;
+  // Region of interest of the state (empty or state_dim entries each); required
+  // by kSep (its search box and the scale of its steering distance).
+  Eigen::VectorXd state_lower;
+  Eigen::VectorXd state_upper;
+  int max_iterations = 100;  // Ipopt iterations per start
+  int restarts = 1;          // random starts on top of the warm start
+  double tolerance = 1e-4;   // Ipopt tol
+  uint64_t seed = 0;
+  SignalOptions signal;
+  SepOptions sep;
+};
+
+// Limits of one call: the best plan so far is returned when one is hit.
+struct PlanLimits {
+  std::optional<std::chrono::steady_clock::time_point> deadline;
+  // Polled between Ipopt iterations; true stops the solve (CANCELLED).
+  std::function<bool()> cancelled;
+};
+
+enum class PlanStatus { kConverged, kTimeLimit, kIterationLimit, kNotConverged };
+
+struct Plan {
+  Eigen::MatrixXd inputs;  // H x input_dim: u_k .. u_{k+H-1}
+  // H x state_dim: x_k .. x_{k+H-1} under the GP mean; 0 rows for the model-free
+  // strategies (they never evaluate the model).
+  Eigen::MatrixXd states;
+  // H x state_dim: latent variance at (x_{k+i}, u_{k+i}); 0 rows when states has.
+  Eigen::MatrixXd variances;
+  int apply_count = 1;  // inputs to apply before planning again
+};
+
+struct PlanSummary {
+  PlanStatus status = PlanStatus::kNotConverged;
+  int iterations = 0;  // Ipopt iterations summed over starts (+ L-BFGS-B for sep)
+  int starts = 0;      // Ipopt starts solved
+  // Summed differential entropy of the returned plan (nats); 0 for the
+  // model-free strategies.
+  double objective = 0.0;
+  double wall_time_ms = 0.0;
+  // kSep only: the searched z* = (x*, u*) and its entropy H(z*) (nats).
+  Eigen::VectorXd search_point;
+  double search_entropy = 0.0;
+};
+
+}  // namespace excite::plan
+
+#endif  // EXCITE_SERVER_PLAN_PLAN_TYPES_H_

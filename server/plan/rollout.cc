@@ -1,0 +1,43 @@
+#include "server/plan/rollout.h"
+
+namespace excite::plan {
+
+Rollout RollOut(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
+                const Eigen::MatrixXd& inputs) {
+  const int horizon = static_cast<int>(inputs.rows());
+  const int dx = model.state_dim();
+  const int du = model.input_dim();
+  Rollout r;
+  r.inputs = inputs;
+  r.states.resize(horizon, dx);
+  r.means.resize(horizon, dx);
+  r.variances.resize(horizon, dx);
+  if (x0.size() != dx || inputs.cols() != du) return r;
+  Eigen::MatrixXd z(1, dx + du);
+  Eigen::MatrixXd mean;
+  Eigen::MatrixXd variance;
+  Eigen::VectorXd x = x0;
+  for (int i = 0; i < horizon; ++i) {
+    r.states.row(i) = x.transpose();
+    z.row(0).head(dx) = x.transpose();
+    z.row(0).tail(du) = inputs.row(i);
+    model.Predict(z, &mean, &variance, nullptr, nullptr);
+    if (mean.rows() != 1 || mean.cols() != dx || variance.rows() != 1 ||
+        variance.cols() != dx) {
+      return r;
+    }
+    r.variances.row(i) = variance.row(0);
+    r.means.row(i) = mean.row(0);
+    x = mean.row(0).transpose();
+  }
+  r.valid = r.states.allFinite() && r.means.allFinite() && r.variances.allFinite();
+  return r;
+}
+
+Eigen::MatrixXd PointsOf(const Rollout& rollout) {
+  Eigen::MatrixXd z(rollout.inputs.rows(), rollout.states.cols() + rollout.inputs.cols());
+  z << rollout.states, rollout.inputs;
+  return z;
+}
+
+}  // namespace excite::plan

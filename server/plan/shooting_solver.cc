@@ -1,0 +1,111 @@
+#include "server/plan/shooting_solver.h"
+
+#include <IpTNLP.hpp>
+#include <cmath>
+#include <utility>
+
+#include "server/plan/ipopt_solve.h"
+#include "server/plan/multiple_shooting_nlp.h"
+
+namespace excite::plan {
+namespace {
+
+PlanStatus FromIpopt(Ipopt::ApplicationReturnStatus status) {
+  switch (status) {
+    case Ipopt::Solve_Succeeded:
+    case Ipopt::Solved_To_Acceptable_Level:
+    case Ipopt::Feasible_Point_Found:
+      return PlanStatus::kConverged;
+    case Ipopt::Maximum_Iterations_Exceeded:
+      return PlanStatus::kIterationLimit;
+    case Ipopt::User_Requested_Stop:
+    case Ipopt::Maximum_CpuTime_Exceeded:
+      return PlanStatus::kTimeLimit;
+    default:
+      return PlanStatus::kNotConverged;
+  }
+}
+
+}  // namespace
+
+double RolloutObjective(const ShootingObjective& objective, const Rollout& rollout) {
+  return objective.Evaluate(PointsOf(rollout), rollout.means, rollout.variances, nullptr,
+                            nullptr, nullptr);
+}
+
+ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
+                               const ShootingObjective& objective,
+                               const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,
+                               const Eigen::VectorXd& upper,
+                               std::vector<Eigen::MatrixXd> starts,
+                               const ShootingSettings& settings,
+                               const std::function<bool()>& stop) {
+  ShootingResult result;
+  const auto consider = [&](Rollout r, int start) {
+    if (!r.valid) return;
+    const double value = RolloutObjective(objective, r);
+    if (std::isfinite(value) && value < result.value) {
+      result.value = value;
+      result.best = std::move(r);
+      result.best_start = start;
+    }
+  };
+
+  // Every start, rolled out, is already a feasible plan: keep the best.
+  std::vector<bool> finite(starts.size(), false);
+  std::vector<Eigen::MatrixXd> initial_states(starts.size());
+  for (size_t s = 0; s < starts.size(); ++s) {
+    const Eigen::Index horizon = starts[s].rows();
+    starts[s] = starts[s]
+                    .cwiseMax(lower.transpose().replicate(horizon, 1))
+                    .cwiseMin(upper.transpose().replicate(horizon, 1));
+    Rollout r = RollOut(model, x0, starts[s]);
+    finite[s] = r.valid;
+    initial_states[s] = r.states;
+    consider(std::move(r), static_cast<int>(s));
+  }
+
+  std::vector<PlanStatus> start_status(starts.size(), PlanStatus::kNotConverged);
+  const auto stopped = [&stop] { return stop && stop(); };
+  for (size_t s = 0; s < starts.size(); ++s) {
+    if (stopped()) {
+      result.stopped = true;
+      break;
+    }
+    if (!finite[s]) continue;  // the model is not finite along this start
+    const Eigen::Index horizon = starts[s].rows();
+    Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
+        model, objective, x0, lower, upper, starts[s], initial_states[s], stopped);
+    IpoptSettings ipopt;
+    ipopt.max_iterations = settings.max_iterations;
+    ipopt.tolerance = settings.tolerance;
+    ipopt.objective_scaling = settings.objective_scaling;
+    const IpoptOutcome outcome =
+        SolveTnlp(Ipopt::SmartPtr<Ipopt::TNLP>(Ipopt::GetRawPtr(nlp)), ipopt);
+    ++result.starts;
+    result.iterations += nlp->iterations();
+    start_status[s] = FromIpopt(outcome.status);
+    const Eigen::MatrixXd lower_rows = lower.transpose().replicate(horizon, 1);
+    const Eigen::MatrixXd upper_rows = upper.transpose().replicate(horizon, 1);
+    for (const Eigen::VectorXd* w : {&nlp->best_feasible(), &nlp->final_point()}) {
+      if (w->size() != nlp->num_variables() || !w->allFinite()) continue;
+      if (w == &nlp->final_point() && *w == nlp->best_feasible()) continue;  // done
+      const Eigen::MatrixXd inputs =
+          nlp->InputsOf(*w).cwiseMax(lower_rows).cwiseMin(upper_rows);
+      consider(RollOut(model, x0, inputs), static_cast<int>(s));
+    }
+    if (nlp->stopped()) {
+      result.stopped = true;
+      break;
+    }
+  }
+  if (result.best_start >= 0) {
+    result.status = result.stopped ? PlanStatus::kTimeLimit
+                                   : start_status[static_cast<size_t>(result.best_start)];
+  } else if (result.stopped) {
+    result.status = PlanStatus::kTimeLimit;
+  }
+  return result;
+}
+
+}  // namespace excite::plan
