@@ -370,10 +370,13 @@ def finish_trial(t):
 
 class Estimator:
     """Expected wall time of a trial from the trials finished so far: the mean of
-    its pair; else seconds per sample of its system (any strategy); else of all."""
+    its pair; else seconds per sample of its system (any strategy); else of all;
+    before any trial has finished, the same from the running trials' progress
+    (an underestimate: later samples cost more, the GP grows)."""
 
     def __init__(self):
         self.done = []  # (system, strategy, samples, wall)
+        self.partial = []  # the same for running trials, refreshed by the caller
 
     def add(self, t, samples):
         self.done.append((t.system, t.strategy, samples or 1, t.wall))
@@ -382,11 +385,12 @@ class Estimator:
         same = [w for s, st, _, w in self.done if (s, st) == t.pair]
         if same:
             return sum(same) / len(same)
-        for pick in (lambda s: s == t.system, lambda s: True):
-            rows = [(n, w) for s, _, n, w in self.done if pick(s)]
-            if rows:
-                per_sample = sum(w for _, w in rows) / sum(n for n, _ in rows)
-                return per_sample * (samples or 1)
+        for rows_all in (self.done, self.partial):
+            for pick in (lambda s: s == t.system, lambda s: True):
+                rows = [(n, w) for s, _, n, w in rows_all if pick(s) and n > 0]
+                if rows:
+                    per_sample = sum(w for _, w in rows) / sum(n for n, _ in rows)
+                    return per_sample * (samples or 1)
         return None
 
 
@@ -403,13 +407,15 @@ def run_trials(trials, args, server, samples_of):
     timeout = args.trial_timeout
 
     def eta():
+        now = time.monotonic()
+        est.partial = [(r.system, r.strategy, trial_progress(r), now - r.start)
+                       for r in running]
         rem = 0.0
         for q in queue:
             e = est.estimate(q, samples_of.get(q.system))
             if e is None:
                 return None
             rem += e
-        now = time.monotonic()
         for r in running:
             e = est.estimate(r, samples_of.get(r.system))
             elapsed = now - r.start
@@ -431,7 +437,7 @@ def run_trials(trials, args, server, samples_of):
         e = eta()
         return (f"[{done}/{total} done, {failed} failed] running: "
                 + ", ".join(parts) + f" | elapsed {fmt_duration(now - t0)}, "
-                f"left ~{fmt_duration(e) if e is not None else '? (after first trials)'}")
+                f"left ~{fmt_duration(e) if e is not None else '?'}")
 
     try:
         while queue or running:
