@@ -9,9 +9,11 @@
 
 #include "server/gp/dynamics_model.h"
 #include "server/plan/entropy_objective.h"
+#include "server/plan/entropy_search.h"
 #include "server/plan/ipopt_solve.h"
 #include "server/plan/multiple_shooting_nlp.h"
 #include "server/plan/planner.h"
+#include "server/plan/steering_objective.h"
 
 namespace excite::plan {
 namespace {
@@ -126,6 +128,105 @@ TEST(PlannerGpTest, RecPlanBeatsRandomSequences) {
       planner.PlanInputs(model, plan->states.row(1).transpose(), PlanLimits{}, &summary);
   ASSERT_TRUE(second.ok()) << second.status();
   EXPECT_EQ(second->inputs.rows(), 15);
+}
+
+// sep's search on the GP: the analytic entropy gradient against central
+// differences, and the searched z* against 1000 random points of the box.
+TEST(PlannerGpTest, SepSearchOnTheGp) {
+  const gp::DynamicsModel model = FittedModel(150);
+  const Eigen::Vector3d lower(-3.14159, -8.0, -3.0), upper(3.14159, 8.0, 3.0);
+  std::mt19937_64 rng(5);
+  const auto random_point = [&] {
+    Eigen::VectorXd z(3);
+    for (int l = 0; l < 3; ++l) {
+      z(l) = std::uniform_real_distribution<double>(lower(l), upper(l))(rng);
+    }
+    return z;
+  };
+  for (int p = 0; p < 10; ++p) {
+    const Eigen::VectorXd z = random_point();
+    Eigen::VectorXd grad;
+    PointEntropy(model, z, &grad);
+    for (int l = 0; l < 3; ++l) {
+      const double h = 1e-5 * (upper(l) - lower(l));
+      Eigen::VectorXd zp = z, zm = z;
+      zp(l) += h;
+      zm(l) -= h;
+      const double fd =
+          (PointEntropy(model, zp, nullptr) - PointEntropy(model, zm, nullptr)) / (2 * h);
+      EXPECT_NEAR(grad(l), fd, 1e-4 * std::max(1.0, std::abs(fd))) << p << " " << l;
+    }
+  }
+
+  EntropySearchOptions options;
+  options.seed = 11;
+  const EntropySearchResult result = SearchMaxEntropy(model, lower, upper, options, {});
+  ASSERT_EQ(result.z.size(), 3);
+  double best_random = -1e300;
+  for (int s = 0; s < 1000; ++s) {
+    best_random = std::max(best_random, PointEntropy(model, random_point(), nullptr));
+  }
+  EXPECT_GE(result.entropy, best_random);
+  EXPECT_TRUE((result.z.array() >= lower.array()).all());
+  EXPECT_TRUE((result.z.array() <= upper.array()).all());
+  RecordProperty("search_entropy", std::to_string(result.entropy));
+  RecordProperty("best_random_entropy", std::to_string(best_random));
+  RecordProperty("search_evaluations", std::to_string(result.evaluations));
+}
+
+TEST(PlannerGpTest, SteeringDerivativeCheckerOnTheGp) {
+  const gp::DynamicsModel model = FittedModel(80);
+  const int horizon = 8;
+  Eigen::MatrixXd inputs(horizon, 1), states(horizon, 2);
+  for (int i = 0; i < horizon; ++i) {
+    inputs(i, 0) = 2.5 * std::sin(0.9 * i);
+    states.row(i) << 0.3 * std::cos(0.5 * i), 1.5 * std::sin(0.7 * i);
+  }
+  const SteeringObjective objective(Eigen::Vector2d(1.5, -2.0),
+                                    Eigen::Vector2d(1.0 / 9.87, 1.0 / 64.0));
+  Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
+      model, objective, Eigen::Vector2d(0.1, -0.2), Eigen::VectorXd::Constant(1, -3.0),
+      Eigen::VectorXd::Constant(1, 3.0), inputs, states);
+  IpoptSettings settings;
+  settings.max_iterations = 0;
+  settings.string_options = {{"derivative_test", "first-order"},
+                             {"derivative_test_print_all", "no"}};
+  std::string log;
+  settings.log = &log;
+  SolveTnlp(nlp, settings);
+  EXPECT_NE(log.find("No errors detected by derivative checker"), std::string::npos)
+      << log;
+}
+
+TEST(PlannerGpTest, SepPlanOnTheGp) {
+  const gp::DynamicsModel model = FittedModel(150);
+  PlanOptions o;
+  o.strategy = Strategy::kSep;
+  o.horizon = 15;
+  o.input_lower = Eigen::VectorXd::Constant(1, -3.0);
+  o.input_upper = Eigen::VectorXd::Constant(1, 3.0);
+  o.state_lower = Eigen::Vector2d(-3.14159, -8.0);
+  o.state_upper = Eigen::Vector2d(3.14159, 8.0);
+  Planner planner(o);
+  const Eigen::VectorXd x0 = Eigen::Vector2d(0.0, 0.0);
+  PlanSummary summary;
+  const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, &summary);
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  const int rows = static_cast<int>(plan->inputs.rows());
+  EXPECT_LE(rows, 16);
+  EXPECT_EQ(plan->apply_count, rows);
+  EXPECT_EQ(plan->inputs(rows - 1, 0), summary.search_point(2));
+  const Eigen::Vector2d target = summary.search_point.head(2);
+  const Eigen::Vector2d scale(3.14159, 8.0);
+  const auto distance = [&](const Eigen::VectorXd& x) {
+    return (x - target).cwiseQuotient(scale).squaredNorm();
+  };
+  EXPECT_LE(distance(plan->states.bottomRows(1).transpose()), distance(x0));
+  RecordProperty("rows", std::to_string(rows));
+  RecordProperty("distance_start", std::to_string(distance(x0)));
+  RecordProperty("distance_end",
+                 std::to_string(distance(plan->states.bottomRows(1).transpose())));
+  RecordProperty("plan_ms", std::to_string(summary.wall_time_ms));
 }
 
 }  // namespace
