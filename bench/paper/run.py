@@ -369,10 +369,11 @@ def finish_trial(t):
 
 
 class Estimator:
-    """Expected wall time of a trial from the trials finished so far: the mean of
-    its pair; else seconds per sample of its system (any strategy); else of all;
-    before any trial has finished, the same from the running trials' progress
-    (an underestimate: later samples cost more, the GP grows)."""
+    """Expected wall time of a trial: the mean of its pair's finished trials; else
+    extrapolated from a running trial of its pair (an underestimate: later samples
+    cost more, the GP grows); else seconds per sample of the same strategy on other
+    systems, of its system, of all finished trials; else the same from the running
+    trials' progress."""
 
     def __init__(self):
         self.done = []  # (system, strategy, samples, wall)
@@ -385,9 +386,12 @@ class Estimator:
         same = [w for s, st, _, w in self.done if (s, st) == t.pair]
         if same:
             return sum(same) / len(same)
-        for rows_all in (self.done, self.partial):
-            for pick in (lambda s: s == t.system, lambda s: True):
-                rows = [(n, w) for s, _, n, w in rows_all if pick(s) and n > 0]
+        picks = (lambda s, st: (s, st) == t.pair, lambda s, st: st == t.strategy,
+                 lambda s, st: s == t.system, lambda s, st: True)
+        for rows_all, pick_list in ((self.partial, picks[:1]), (self.done, picks[1:]),
+                                    (self.partial, picks[1:])):
+            for pick in pick_list:
+                rows = [(n, w) for s, st, n, w in rows_all if pick(s, st) and n > 0]
                 if rows:
                     per_sample = sum(w for _, w in rows) / sum(n for n, _ in rows)
                     return per_sample * (samples or 1)

@@ -202,6 +202,31 @@ class CsvTest(unittest.TestCase):
             self.assertIn("columns", problems[0])
 
 
+class EstimatorTest(unittest.TestCase):
+    """run.py's time-left estimate (which finished or running trial it trusts)."""
+
+    def test_order_of_preference(self):
+        import run  # bench/paper/run.py; main() is not called on import
+
+        class T:
+            def __init__(self, system, strategy, wall=None):
+                self.system, self.strategy, self.wall = system, strategy, wall
+                self.pair = (system, strategy)
+
+        est = run.Estimator()
+        self.assertIsNone(est.estimate(T("p", "rec"), 300))
+        est.partial = [("p", "rec", 100, 50.0)]  # running: 0.5 s per sample so far
+        self.assertAlmostEqual(est.estimate(T("p", "rec"), 300), 150.0)
+        self.assertAlmostEqual(est.estimate(T("d", "pa"), 200), 100.0)
+        est.add(T("d", "rec", wall=40.0), 20)  # finished: 2 s per sample
+        self.assertAlmostEqual(est.estimate(T("p", "rec"), 300), 150.0)
+        self.assertAlmostEqual(est.estimate(T("u", "rec"), 10), 20.0)
+        self.assertAlmostEqual(est.estimate(T("d", "pa"), 10), 20.0)
+        est.add(T("p", "rec", wall=90.0), 300)
+        est.add(T("p", "rec", wall=110.0), 300)
+        self.assertAlmostEqual(est.estimate(T("p", "rec"), 300), 100.0)
+
+
 class PngCheckTest(unittest.TestCase):
     def test_signature_and_size(self):
         with tempfile.TemporaryDirectory() as d:
