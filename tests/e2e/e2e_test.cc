@@ -194,13 +194,13 @@ TEST(EndToEndNoServerTest, SimNamesTheUnreachableAddress) {
 TEST(EndToEndNoServerTest, SimRejectsUnknownStrategy) {
   TempDir work("excite-e2e-badflag");
   auto sim = Subprocess::Start({EXCITE_SIM_PATH, "--server=127.0.0.1:1",
-                                "--config=" EXCITE_PENDULUM_CONFIG, "--strategy=sep"},
+                                "--config=" EXCITE_PENDULUM_CONFIG, "--strategy=bogus"},
                                work.path() + "/sim.out", work.path() + "/sim.err");
   ASSERT_TRUE(sim.ok()) << sim.status();
   absl::StatusOr<int> code = (*sim)->Wait(seconds(30));
   ASSERT_TRUE(code.ok()) << code.status();
   EXPECT_NE(*code, 0);
-  EXPECT_NE(ReadFileOrEmpty(work.path() + "/sim.err").find("sep"), std::string::npos);
+  EXPECT_NE(ReadFileOrEmpty(work.path() + "/sim.err").find("bogus"), std::string::npos);
 }
 
 }  // namespace

@@ -286,6 +286,98 @@ TEST_F(ServiceTest, PlanInputsPerStrategy) {
   }
 }
 
+// prbs, chirp and random need neither data nor a fitted model: PlanInputs works
+// at 0 samples, returns `horizon` inputs to apply and no predictions, and does
+// not refit; the signal continues with the samples the session holds, also
+// across a server restart.
+TEST_F(ServiceTest, ModelFreeStrategiesPlanWithoutData) {
+  for (v1::Strategy strategy :
+       {v1::STRATEGY_PRBS, v1::STRATEGY_CHIRP, v1::STRATEGY_RANDOM}) {
+    SCOPED_TRACE(v1::Strategy_Name(strategy));
+    std::string id = absl::AsciiStrToLower(v1::Strategy_Name(strategy));
+    std::replace(id.begin(), id.end(), '_', '-');
+    const std::string name = Create(id, PendulumConfig(strategy)).name();
+    absl::StatusOr<v1::PlanInputsResponse> plan = client_->PlanInputs(name, {0.0, 0.0});
+    ASSERT_TRUE(plan.ok()) << plan.status();
+    EXPECT_EQ(plan->horizon(), 5);
+    EXPECT_EQ(plan->apply_count(), 5);
+    ASSERT_EQ(plan->inputs_size(), 5);
+    EXPECT_EQ(plan->predicted_states_size(), 0);
+    EXPECT_EQ(plan->predicted_variances_size(), 0);
+    EXPECT_EQ(plan->objective(), 0.0);
+    EXPECT_EQ(plan->solver_status(), v1::SOLVER_STATUS_CONVERGED);
+    EXPECT_EQ(plan->model_version(), 0);
+    for (double u : plan->inputs()) {
+      EXPECT_GE(u, -3.0);
+      EXPECT_LE(u, 3.0);
+      if (strategy == v1::STRATEGY_PRBS) {
+        EXPECT_TRUE(u == -3.0 || u == 3.0) << u;
+      }
+    }
+    // No refit happened, and Predict still needs data.
+    EXPECT_EQ(client_->GetSession(name)->outputs_size(), 0);
+    v1::PredictRequest predict;
+    predict.set_session(name);
+    for (double v : {0.0, 0.0, 0.0}) predict.add_inputs(v);
+    EXPECT_EQ(client_->Predict(predict).status().code(),
+              absl::StatusCode::kFailedPrecondition);
+  }
+
+  // Continuation: 5 inputs at 0 samples, then 5 at 5 samples, equal the first 10
+  // inputs of a horizon-10 session with the same seed; after a restart the
+  // session (still 5 samples) gives the same second chunk again.
+  const std::string a = Create("prbs-a", PendulumConfig(v1::STRATEGY_PRBS)).name();
+  v1::SessionConfig long_config = PendulumConfig(v1::STRATEGY_PRBS);
+  long_config.set_horizon(10);
+  const std::string b = Create("prbs-b", long_config).name();
+  absl::StatusOr<v1::PlanInputsResponse> first = client_->PlanInputs(a, {0.0, 0.0});
+  ASSERT_TRUE(first.ok()) << first.status();
+  Add(a, {PendulumTransitions(5, 0, 8)});
+  absl::StatusOr<v1::PlanInputsResponse> second = client_->PlanInputs(a, {0.0, 0.0});
+  ASSERT_TRUE(second.ok()) << second.status();
+  absl::StatusOr<v1::PlanInputsResponse> whole = client_->PlanInputs(b, {0.0, 0.0});
+  ASSERT_TRUE(whole.ok()) << whole.status();
+  ASSERT_EQ(whole->inputs_size(), 10);
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_EQ(first->inputs(k), whole->inputs(k)) << k;
+    EXPECT_EQ(second->inputs(k), whole->inputs(5 + k)) << k;
+  }
+  StopServer();
+  StartServer();
+  absl::StatusOr<v1::PlanInputsResponse> restarted = client_->PlanInputs(a, {0.0, 0.0});
+  ASSERT_TRUE(restarted.ok()) << restarted.status();
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(restarted->inputs(k), second->inputs(k)) << k;
+}
+
+TEST_F(ServiceTest, SepNeedsStateBoundsAndPlansOverTheWire) {
+  v1::SessionConfig no_bounds = PendulumConfig(v1::STRATEGY_SEP);
+  no_bounds.clear_state_bounds();
+  ExpectStatus(client_->CreateSession(no_bounds, "sep-unbounded").status(),
+               absl::StatusCode::kInvalidArgument, "config.state_bounds:");
+
+  const std::string name = Create("sep", PendulumConfig(v1::STRATEGY_SEP)).name();
+  ExpectStatus(client_->PlanInputs(name, {0.0, 0.0}).status(),
+               absl::StatusCode::kFailedPrecondition, "at least 2 are needed");
+  Add(name, {PendulumTransitions(30, 0, 3)});
+  absl::StatusOr<v1::PlanInputsResponse> plan = client_->PlanInputs(name, {0.1, -0.2});
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  const int h = plan->horizon();
+  EXPECT_GE(h, 1);
+  EXPECT_LE(h, 6);  // at most M = 5 steering inputs, then u*
+  EXPECT_EQ(plan->apply_count(), h);
+  ASSERT_EQ(plan->inputs_size(), h);
+  ASSERT_EQ(plan->predicted_states_size(), 2 * h);
+  ASSERT_EQ(plan->predicted_variances_size(), 2 * h);
+  EXPECT_NEAR(plan->predicted_states(0), 0.1, 1e-9);
+  EXPECT_NEAR(plan->predicted_states(1), -0.2, 1e-9);
+  for (double u : plan->inputs()) {
+    EXPECT_GE(u, -3.0);
+    EXPECT_LE(u, 3.0);
+  }
+  EXPECT_TRUE(std::isfinite(plan->objective()));
+  EXPECT_EQ(plan->model_version(), 2);  // one AddData + one refit
+}
+
 TEST_F(ServiceTest, TinyTimeBudgetGivesTimeLimitOrDeadlineExceeded) {
   v1::SessionConfig config = PendulumConfig();
   config.set_horizon(30);

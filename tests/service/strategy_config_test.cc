@@ -1,0 +1,164 @@
+// Config validation of the strategies added after rec/pa/greedy: prbs, chirp,
+// random (SignalConfig) and sep (SepConfig, state_bounds).
+#include <cmath>
+#include <string>
+
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+#include "server/service/config_text.h"
+#include "server/service/config_validation.h"
+#include "server/service/session_options.h"
+
+namespace excite::service {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+constexpr char kPendulum[] = R"pb(
+  state_dim: 2
+  input_dim: 1
+  input_bounds { lower: -3 upper: 3 }
+  state_bounds { lower: -3.2 upper: 3.2 }
+  state_bounds { lower: -8 upper: 8 }
+  noise { variance: 0.05 fit: true }
+  kernel { fit: true }
+)pb";
+
+v1::SessionConfig Config(v1::Strategy strategy) {
+  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(kPendulum);
+  EXPECT_TRUE(config.ok()) << config.status();
+  config->set_strategy(strategy);
+  return *config;
+}
+
+void ExpectInvalid(v1::SessionConfig config, const std::string& field,
+                   const std::string& what = "") {
+  const absl::Status status = ValidateSessionConfig(&config);
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+  EXPECT_THAT(std::string(status.message()), StartsWith(field + ":")) << status;
+  EXPECT_THAT(std::string(status.message()), HasSubstr(what)) << status;
+}
+
+TEST(StrategyConfigTest, DefaultsAreFilledOnlyForTheSessionsStrategy) {
+  v1::SessionConfig c = Config(v1::STRATEGY_PRBS);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.signal().prbs_min_hold(), 5);
+  EXPECT_EQ(c.signal().chirp_period(), 0);
+  EXPECT_EQ(c.signal().random_hold(), 0);
+  EXPECT_FALSE(c.has_sep());
+  EXPECT_EQ(c.horizon(), 15);
+
+  c = Config(v1::STRATEGY_CHIRP);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.signal().chirp_start_frequency(), 0.01);
+  EXPECT_EQ(c.signal().chirp_end_frequency(), 0.2);
+  EXPECT_EQ(c.signal().chirp_period(), 200);
+  EXPECT_EQ(c.signal().prbs_min_hold(), 0);
+
+  c = Config(v1::STRATEGY_RANDOM);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.signal().random_hold(), 1);
+
+  c = Config(v1::STRATEGY_SEP);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.sep().search_starts(), 4);
+  EXPECT_EQ(c.sep().search_samples(), 256);
+  EXPECT_EQ(c.sep().search_iterations(), 50);
+  EXPECT_FALSE(c.has_signal());
+
+  // The existing strategies' stored configs do not grow new sections.
+  for (v1::Strategy s : {v1::STRATEGY_REC, v1::STRATEGY_PA, v1::STRATEGY_GREEDY}) {
+    c = Config(s);
+    ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+    EXPECT_FALSE(c.has_signal());
+    EXPECT_FALSE(c.has_sep());
+  }
+
+  // Idempotent, and explicit values are kept.
+  c = Config(v1::STRATEGY_CHIRP);
+  c.mutable_signal()->set_chirp_start_frequency(0.3);
+  c.mutable_signal()->set_chirp_end_frequency(0.05);
+  c.mutable_signal()->set_chirp_period(60);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  v1::SessionConfig again = c;
+  ASSERT_TRUE(ValidateSessionConfig(&again).ok());
+  EXPECT_EQ(again.SerializeAsString(), c.SerializeAsString());
+  EXPECT_EQ(c.signal().chirp_start_frequency(), 0.3);
+  EXPECT_EQ(c.signal().chirp_period(), 60);
+}
+
+TEST(StrategyConfigTest, SepNeedsStateBounds) {
+  v1::SessionConfig c = Config(v1::STRATEGY_SEP);
+  c.clear_state_bounds();
+  ExpectInvalid(c, "config.state_bounds", "STRATEGY_SEP needs state_dim (2)");
+  // Other strategies still work without them.
+  for (v1::Strategy s :
+       {v1::STRATEGY_REC, v1::STRATEGY_PRBS, v1::STRATEGY_CHIRP, v1::STRATEGY_RANDOM}) {
+    c = Config(s);
+    c.clear_state_bounds();
+    EXPECT_TRUE(ValidateSessionConfig(&c).ok()) << v1::Strategy_Name(s);
+  }
+}
+
+TEST(StrategyConfigTest, InvalidParametersNameTheField) {
+  v1::SessionConfig c = Config(v1::STRATEGY_PRBS);
+  c.mutable_signal()->set_prbs_min_hold(-2);
+  ExpectInvalid(c, "config.signal.prbs_min_hold", "[1, 1000000]");
+  c = Config(v1::STRATEGY_CHIRP);
+  c.mutable_signal()->set_chirp_start_frequency(0.7);
+  ExpectInvalid(c, "config.signal.chirp_start_frequency", "(0, 0.5]");
+  c = Config(v1::STRATEGY_CHIRP);
+  c.mutable_signal()->set_chirp_end_frequency(-0.1);
+  ExpectInvalid(c, "config.signal.chirp_end_frequency");
+  c = Config(v1::STRATEGY_CHIRP);
+  c.mutable_signal()->set_chirp_end_frequency(std::nan(""));
+  ExpectInvalid(c, "config.signal.chirp_end_frequency");
+  c = Config(v1::STRATEGY_CHIRP);
+  c.mutable_signal()->set_chirp_period(-1);
+  ExpectInvalid(c, "config.signal.chirp_period");
+  c = Config(v1::STRATEGY_RANDOM);
+  c.mutable_signal()->set_random_hold(-1);
+  ExpectInvalid(c, "config.signal.random_hold");
+  c = Config(v1::STRATEGY_SEP);
+  c.mutable_sep()->set_search_starts(101);
+  ExpectInvalid(c, "config.sep.search_starts", "[1, 100]");
+  c = Config(v1::STRATEGY_SEP);
+  c.mutable_sep()->set_search_samples(-5);
+  ExpectInvalid(c, "config.sep.search_samples");
+  c = Config(v1::STRATEGY_SEP);
+  c.mutable_sep()->set_search_iterations(10001);
+  ExpectInvalid(c, "config.sep.search_iterations");
+  // A set but invalid value is rejected whatever the strategy.
+  c = Config(v1::STRATEGY_REC);
+  c.mutable_signal()->set_random_hold(-1);
+  ExpectInvalid(c, "config.signal.random_hold");
+}
+
+TEST(StrategyConfigTest, PlanOptionsFromConfig) {
+  v1::SessionConfig c = Config(v1::STRATEGY_SEP);
+  c.mutable_sep()->set_search_starts(7);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  plan::PlanOptions o = PlanOptionsFromConfig(c);
+  EXPECT_EQ(o.strategy, plan::Strategy::kSep);
+  ASSERT_EQ(o.state_lower.size(), 2);
+  EXPECT_EQ(o.state_lower(1), -8.0);
+  EXPECT_EQ(o.state_upper(0), 3.2);
+  EXPECT_EQ(o.sep.search_starts, 7);
+  EXPECT_EQ(o.sep.search_samples, 256);
+
+  c = Config(v1::STRATEGY_CHIRP);
+  c.mutable_signal()->set_chirp_period(33);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  o = PlanOptionsFromConfig(c);
+  EXPECT_EQ(o.strategy, plan::Strategy::kChirp);
+  EXPECT_EQ(o.signal.chirp_period, 33);
+  EXPECT_EQ(o.signal.chirp_end_frequency, 0.2);
+  EXPECT_EQ(PlanOptionsFromConfig(Config(v1::STRATEGY_PRBS)).strategy,
+            plan::Strategy::kPrbs);
+  EXPECT_EQ(PlanOptionsFromConfig(Config(v1::STRATEGY_RANDOM)).strategy,
+            plan::Strategy::kRandom);
+}
+
+}  // namespace
+}  // namespace excite::service
