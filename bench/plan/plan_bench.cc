@@ -1,5 +1,5 @@
-// One `rec` step (DynamicsModel::Refit + Planner::PlanInputs) and one `pa` plan on
-// the pendulum with n = 300 samples and M = 15, the paper's setting
+// One `rec` step (DynamicsModel::Refit + Planner::PlanInputs), one `pa` and one `sep`
+// plan on the pendulum with n = 300 samples and M = 15, the paper's setting
 // (sim/configs/pendulum.textproto: m = l = 1, b = 0.1, dt = 0.1 s, |u| <= 3,
 // measurement noise variance 0.05). Counters split the time into refit and plan.
 #include <benchmark/benchmark.h>
@@ -155,6 +155,35 @@ void BM_PaPlan(benchmark::State& state) {
   state.counters["entropy"] = benchmark::Counter(entropy, avg);
 }
 BENCHMARK(BM_PaPlan)->Iterations(10)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// One sep plan from rest on a fitted model: the entropy search (multi-start
+// L-BFGS-B over the region x input bounds) and the Ipopt steering towards x*.
+void BM_SepPlan(benchmark::State& state) {
+  const gp::DynamicsModel model = FittedPendulumModel(PendulumData(300), 300);
+  PlanOptions options = PendulumOptions(Strategy::kSep);
+  options.state_lower = Eigen::Vector2d(-3.141592653589793, -8.0);
+  options.state_upper = Eigen::Vector2d(3.141592653589793, 8.0);
+  Planner planner(options);
+  double iterations = 0.0, steps = 0.0, search_entropy = 0.0;
+  for (auto _ : state) {
+    PlanSummary summary;
+    auto plan =
+        planner.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), PlanLimits{}, &summary);
+    if (!plan.ok()) {
+      state.SkipWithError("plan failed");
+      break;
+    }
+    iterations += summary.iterations;
+    steps += static_cast<double>(plan->inputs.rows());
+    search_entropy += summary.search_entropy;
+    benchmark::DoNotOptimize(plan->inputs.data());
+  }
+  const auto avg = benchmark::Counter::kAvgIterations;
+  state.counters["iters"] = benchmark::Counter(iterations, avg);
+  state.counters["inputs"] = benchmark::Counter(steps, avg);
+  state.counters["search_entropy"] = benchmark::Counter(search_entropy, avg);
+}
+BENCHMARK(BM_SepPlan)->Iterations(10)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // The model alone: one batched Predict of M = 15 points with Jacobians (what one
 // NLP evaluation costs) at n = 300.
