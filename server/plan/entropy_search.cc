@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "server/plan/entropy_objective.h"
