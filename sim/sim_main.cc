@@ -22,7 +22,7 @@
 
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "excite-server address, HOST:PORT");
 ABSL_FLAG(std::string, config, "", "SimConfig textproto file (required)");
-ABSL_FLAG(std::string, strategy, "", "rec, pa or greedy; overrides the config's");
+ABSL_FLAG(std::string, strategy, "", "rec, pa, greedy, sep, prbs, chirp or random; overrides the config's");
 ABSL_FLAG(int32_t, samples, 0, "transitions to collect; 0 keeps the config's");
 ABSL_FLAG(int64_t, seed, -1,
           "seed of the measurement noise and of the session; -1 keeps the config's "
@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
   absl::SetProgramUsageMessage(
       "Runs one exploration of a simulated plant against excite-server.\n"
       "  excite-sim --config=sim/configs/pendulum.textproto [--server=HOST:PORT]\n"
-      "             [--strategy=rec|pa|greedy] [--samples=N] [--seed=S] "
+      "             [--strategy=NAME] [--samples=N] [--seed=S] "
       "[--summary=FILE]");
   absl::ParseCommandLine(argc, argv);
   return excite::sim::Main();
