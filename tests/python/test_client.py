@@ -192,6 +192,15 @@ def test_plan_respects_bounds_and_strategy(client, strategy):
     session.delete()
 
 
+def test_model_free_strategy_plans_without_data_or_predictions(client):
+    session = client.create_session(linear_config(strategy="random", horizon=6))
+    plan = session.plan([0.0, 0.0])  # no data needed
+    assert plan.inputs.shape == (6, 1) and np.all(np.abs(plan.inputs) <= 1.0)
+    assert plan.predicted_states.shape == (0, 2) and plan.predicted_variances.shape == (0, 2)
+    assert plan.apply_count == 6 and plan.to_apply.shape == (6, 1)
+    session.delete()
+
+
 def test_stream_sends_transitions_as_they_come(client):
     session = client.create_session(linear_config())
     x, u, x_next, _, _ = linear_data(10, seed=5)

@@ -6,8 +6,10 @@
 With alpha = -1, beta = 1 it is a double well (stable equilibria x = -1 and x = +1,
 barrier 1/4 at x = 0); it starts at rest in the left well. |u| <= 0.5 is just enough
 to tip it over the barrier (0.385 would hold it on the hill top), so the explorer has
-to find out that there is a second well. The server plans the inputs (rec by default,
-or pa); `--strategy random` applies uniformly random inputs instead, for comparison.
+to find out that there is a second well. The server chooses the inputs with the
+session's strategy: rec by default; pa, greedy, sep, or the model-free prbs, chirp and
+random for comparison. While a strategy that needs a model has too little data
+(FAILED_PRECONDITION), the plant applies one uniformly random input.
 Every `--every` samples it prints the RMSE of the model's predicted next state against
 the true one on a fixed set of random (x, u) in the region of interest.
 
@@ -59,7 +61,7 @@ def session_config(strategy, horizon, seed):
         "noise": {"variance": NOISE_VARIANCE, "fit": True},
         "kernel": {"fit": True},
         "target": "delta",
-        "strategy": "rec" if strategy == "random" else strategy,
+        "strategy": strategy,
         "horizon": horizon,
         "refit": {"every_samples": 1, "min_samples": 2},
         "seed": seed,
@@ -69,7 +71,8 @@ def session_config(strategy, horizon, seed):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--server", default="127.0.0.1:50051")
-    parser.add_argument("--strategy", default="rec", choices=["rec", "pa", "greedy", "random"])
+    parser.add_argument("--strategy", default="rec",
+                        choices=["rec", "pa", "greedy", "sep", "prbs", "chirp", "random"])
     parser.add_argument("--samples", type=int, default=80)
     parser.add_argument("--horizon", type=int, default=10)
     parser.add_argument("--every", type=int, default=10, help="RMSE every this many samples")
@@ -102,15 +105,14 @@ def main(argv=None):
         try:
             while samples < args.samples:
                 inputs = None
-                if args.strategy != "random":
-                    try:
-                        t = time.monotonic()
-                        inputs = session.plan(y).to_apply[:, 0]
-                        plan_ms.append(1000 * (time.monotonic() - t))
-                    except grpc.RpcError as e:
-                        if e.code() != grpc.StatusCode.FAILED_PRECONDITION:
-                            raise
-                        # Not enough data for a model yet: one random input.
+                try:
+                    t = time.monotonic()
+                    inputs = session.plan(y).to_apply[:, 0]
+                    plan_ms.append(1000 * (time.monotonic() - t))
+                except grpc.RpcError as e:
+                    if e.code() != grpc.StatusCode.FAILED_PRECONDITION:
+                        raise
+                    # Not enough data for a model yet: one random input.
                 if inputs is None:
                     inputs = rng.uniform(-U_MAX, U_MAX, size=1)
                 inputs = np.clip(inputs, -U_MAX, U_MAX)[: args.samples - samples]

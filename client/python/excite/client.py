@@ -120,10 +120,12 @@ class Prediction:
 class Plan:
     """A plan from PlanInputs. Arrays have one row per step of the horizon."""
 
-    inputs: np.ndarray  # (horizon, input_dim): u_k .. u_{k+M-1}
-    predicted_states: np.ndarray  # (horizon, state_dim), row 0 is the given state
-    predicted_variances: np.ndarray  # (horizon, state_dim), latent variance
-    horizon: int
+    inputs: np.ndarray  # (horizon, input_dim): u_k .. u_{k+horizon-1}
+    # (horizon, state_dim), row 0 is the given state; (0, state_dim) for the
+    # model-free strategies (prbs, chirp, random).
+    predicted_states: np.ndarray
+    predicted_variances: np.ndarray  # like predicted_states: latent variances
+    horizon: int  # number of inputs returned
     apply_count: int  # apply this many inputs, then plan again
     objective: float  # summed differential entropy (nats)
     solver_status: str  # e.g. "SOLVER_STATUS_CONVERGED"
@@ -352,14 +354,14 @@ class Session:
             timeout=self.client.plan_timeout_s,
             metadata=self.metadata,
         )
-        m = reply.horizon
+        def rows(values, columns):
+            return np.asarray(values, dtype=np.float64).reshape(-1, columns)
+
         return Plan(
-            inputs=np.asarray(reply.inputs, dtype=np.float64).reshape(m, self.input_dim),
-            predicted_states=np.asarray(reply.predicted_states, dtype=np.float64).reshape(
-                m, self.state_dim),
-            predicted_variances=np.asarray(
-                reply.predicted_variances, dtype=np.float64).reshape(m, self.state_dim),
-            horizon=m,
+            inputs=rows(reply.inputs, self.input_dim),
+            predicted_states=rows(reply.predicted_states, self.state_dim),
+            predicted_variances=rows(reply.predicted_variances, self.state_dim),
+            horizon=reply.horizon,
             apply_count=reply.apply_count,
             objective=reply.objective,
             solver_status=pb.SolverStatus.Name(reply.solver_status),
