@@ -55,7 +55,10 @@ compose() {
     podman-compose -p "$tag" -f deploy/compose.yaml "$@"
 }
 cleanup() {
-  if [ -n "${compose_up:-}" ]; then compose down -v >/dev/null 2>&1 || true; fi
+  if [ -n "${compose_up:-}" ]; then
+    podman rm -f -v "${tag}_pendulum-rec_1" "${tag}_pendulum-pa_1" >/dev/null 2>&1 || true
+    compose down -v >/dev/null 2>&1 || true
+  fi
   podman rm -f -t 0 "$server" "$server-2" >/dev/null 2>&1 || true
   podman volume rm -f "$vol" >/dev/null 2>&1 || true
   podman network rm -f "$net" >/dev/null 2>&1 || true
@@ -202,6 +205,9 @@ PY
 podman run --rm --no-healthcheck --network host "$image" \
   excite-health --server="127.0.0.1:$host_port" >/dev/null ||
   fail "compose: server not reachable on the published port $host_port"
+# The plants got anonymous volumes for the image's VOLUME; podman-compose 1.0.3's
+# down -v leaves those behind, so remove them with their containers first.
+podman rm -f -v "${tag}_pendulum-rec_1" "${tag}_pendulum-pa_1" >/dev/null 2>&1 || true
 compose down -v >>"$out/compose.log" 2>&1 || { cat "$out/compose.log" >&2; fail "compose down failed"; }
 compose_up=
 log "compose stack: server and two plants ran, summaries on the volume; PASS"
