@@ -1,9 +1,13 @@
 #include "client/excite_client.h"
 
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <utility>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
 #include "grpcpp/create_channel.h"
 #include "grpcpp/security/credentials.h"
 
@@ -19,11 +23,49 @@ absl::Status FromGrpc(const grpc::Status& status) {
   return absl::Status(absl_code, status.error_message());
 }
 
-void SetDeadline(grpc::ClientContext* context, std::chrono::milliseconds timeout) {
-  context->set_deadline(std::chrono::system_clock::now() + timeout);
+bool ReadFile(const std::string& path, std::string* contents) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  *contents = buffer.str();
+  return true;
+}
+
+std::shared_ptr<grpc::ChannelCredentials> MakeCredentials(const ClientOptions& options) {
+  if (options.tls_ca_file.empty()) return grpc::InsecureChannelCredentials();
+  grpc::SslCredentialsOptions ssl;
+  if (!ReadFile(options.tls_ca_file, &ssl.pem_root_certs) ||
+      (!options.tls_cert_file.empty() &&
+       !ReadFile(options.tls_cert_file, &ssl.pem_cert_chain)) ||
+      (!options.tls_key_file.empty() &&
+       !ReadFile(options.tls_key_file, &ssl.pem_private_key))) {
+    return nullptr;
+  }
+  return grpc::SslCredentials(ssl);
 }
 
 }  // namespace
+
+absl::StatusOr<std::string> LoadAuthToken(const std::string& token_file) {
+  if (token_file.empty()) {
+    const char* env = std::getenv("EXCITE_AUTH_TOKEN");
+    return std::string(env != nullptr ? env : "");
+  }
+  std::string contents;
+  if (!ReadFile(token_file, &contents)) {
+    return absl::InvalidArgumentError(absl::StrCat("cannot read ", token_file));
+  }
+  return std::string(absl::StripAsciiWhitespace(contents));
+}
+
+void ExciteClient::Prepare(grpc::ClientContext* context,
+                           std::chrono::milliseconds timeout) const {
+  context->set_deadline(std::chrono::system_clock::now() + timeout);
+  if (!options_.auth_token.empty()) {
+    context->AddMetadata("authorization", "Bearer " + options_.auth_token);
+  }
+}
 
 ExciteClient::ExciteClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options)
     : channel_(std::move(channel)),
@@ -36,8 +78,12 @@ std::unique_ptr<ExciteClient> ExciteClient::Connect(const std::string& target,
   // Match the server's default message cap (64 MiB) for large Predict batches.
   args.SetMaxReceiveMessageSize(64 * 1024 * 1024);
   args.SetMaxSendMessageSize(64 * 1024 * 1024);
+  std::shared_ptr<grpc::ChannelCredentials> credentials = MakeCredentials(options);
+  // Unreadable TLS files: a channel that never connects (calls: UNAVAILABLE).
   std::shared_ptr<grpc::Channel> channel =
-      grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
+      credentials != nullptr
+          ? grpc::CreateCustomChannel(target, credentials, args)
+          : grpc::CreateCustomChannel(target, grpc::SslCredentials({"-", "", ""}), args);
   return std::unique_ptr<ExciteClient>(new ExciteClient(std::move(channel), options));
 }
 
@@ -52,7 +98,7 @@ absl::Status ExciteClient::WaitForReady(std::chrono::milliseconds timeout) {
 absl::StatusOr<v1::Session> ExciteClient::CreateSession(const v1::SessionConfig& config,
                                                         const std::string& session_id) {
   grpc::ClientContext context;
-  SetDeadline(&context, options_.default_deadline);
+  Prepare(&context, options_.default_deadline);
   v1::CreateSessionRequest request;
   request.set_session_id(session_id);
   *request.mutable_config() = config;
@@ -66,7 +112,7 @@ absl::StatusOr<v1::Session> ExciteClient::CreateSession(const v1::SessionConfig&
 
 absl::StatusOr<v1::Session> ExciteClient::GetSession(const std::string& name) {
   grpc::ClientContext context;
-  SetDeadline(&context, options_.default_deadline);
+  Prepare(&context, options_.default_deadline);
   v1::GetSessionRequest request;
   request.set_name(name);
   v1::Session response;
@@ -80,7 +126,7 @@ absl::StatusOr<v1::Session> ExciteClient::GetSession(const std::string& name) {
 absl::StatusOr<v1::ListSessionsResponse> ExciteClient::ListSessions(
     int page_size, const std::string& page_token) {
   grpc::ClientContext context;
-  SetDeadline(&context, options_.default_deadline);
+  Prepare(&context, options_.default_deadline);
   v1::ListSessionsRequest request;
   request.set_page_size(page_size);
   request.set_page_token(page_token);
@@ -94,7 +140,7 @@ absl::StatusOr<v1::ListSessionsResponse> ExciteClient::ListSessions(
 
 absl::Status ExciteClient::DeleteSession(const std::string& name) {
   grpc::ClientContext context;
-  SetDeadline(&context, options_.default_deadline);
+  Prepare(&context, options_.default_deadline);
   v1::DeleteSessionRequest request;
   request.set_name(name);
   v1::DeleteSessionResponse response;
@@ -104,7 +150,7 @@ absl::Status ExciteClient::DeleteSession(const std::string& name) {
 absl::StatusOr<v1::AddDataResponse> ExciteClient::AddData(
     const std::string& session, const std::vector<std::vector<v1::Transition>>& batches) {
   grpc::ClientContext context;
-  SetDeadline(&context, options_.default_deadline);
+  Prepare(&context, options_.default_deadline);
   v1::AddDataResponse response;
   std::unique_ptr<grpc::ClientWriter<v1::AddDataRequest>> writer =
       stub_->AddData(&context, &response);
@@ -125,7 +171,7 @@ absl::StatusOr<v1::AddDataResponse> ExciteClient::AddData(
 absl::StatusOr<v1::PredictResponse> ExciteClient::Predict(
     const v1::PredictRequest& request) {
   grpc::ClientContext context;
-  SetDeadline(&context, options_.default_deadline);
+  Prepare(&context, options_.default_deadline);
   v1::PredictResponse response;
   if (absl::Status s = FromGrpc(stub_->Predict(&context, request, &response)); !s.ok()) {
     return s;
@@ -136,7 +182,7 @@ absl::StatusOr<v1::PredictResponse> ExciteClient::Predict(
 absl::StatusOr<v1::PlanInputsResponse> ExciteClient::PlanInputs(
     const std::string& session, const std::vector<double>& state) {
   grpc::ClientContext context;
-  SetDeadline(&context, options_.plan_deadline);
+  Prepare(&context, options_.plan_deadline);
   v1::PlanInputsRequest request;
   request.set_session(session);
   for (double x : state) request.add_state(x);

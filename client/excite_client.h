@@ -16,13 +16,26 @@ struct ClientOptions {
   std::chrono::milliseconds default_deadline{30000};
   // Deadline of PlanInputs (solves can take a while).
   std::chrono::milliseconds plan_deadline{60000};
+  // TLS: PEM CA bundle that signed the server's certificate; empty: plaintext.
+  std::string tls_ca_file;
+  // Mutual TLS: this client's PEM certificate and key (with tls_ca_file).
+  std::string tls_cert_file;
+  std::string tls_key_file;
+  // Sent as "authorization: Bearer <auth_token>" on every call if non-empty.
+  std::string auth_token;
 };
+
+// Reads the client's auth token: the file `token_file` if non-empty (whitespace
+// stripped), else $EXCITE_AUTH_TOKEN, else "". INVALID_ARGUMENT if the file
+// cannot be read.
+absl::StatusOr<std::string> LoadAuthToken(const std::string& token_file);
 
 // A thin synchronous wrapper over ExplorationService stubs: sets deadlines and
 // turns grpc::Status into absl::Status (same code, same message). Thread-safe.
 class ExciteClient {
  public:
-  // `target` is "host:port". Insecure channel (loopback default).
+  // `target` is "host:port". Plaintext unless options.tls_ca_file is set; a
+  // TLS file that cannot be read makes every call fail with UNAVAILABLE.
   static std::unique_ptr<ExciteClient> Connect(const std::string& target,
                                                ClientOptions options = {});
   // Waits until the channel is ready or the timeout passes (UNAVAILABLE).
@@ -36,13 +49,16 @@ class ExciteClient {
   absl::Status DeleteSession(const std::string& name);
   // One stream carrying `batches` as consecutive messages.
   absl::StatusOr<v1::AddDataResponse> AddData(
-      const std::string& session, const std::vector<std::vector<v1::Transition>>& batches);
+      const std::string& session,
+      const std::vector<std::vector<v1::Transition>>& batches);
   absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request);
   absl::StatusOr<v1::PlanInputsResponse> PlanInputs(const std::string& session,
                                                     const std::vector<double>& state);
 
  private:
   ExciteClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options);
+  // Deadline and the authorization metadata.
+  void Prepare(grpc::ClientContext* context, std::chrono::milliseconds timeout) const;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::ExplorationService::Stub> stub_;
   ClientOptions options_;

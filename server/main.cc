@@ -12,11 +12,13 @@
 #include <cstdlib>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
+#include "server/service/auth.h"
 #include "server/service/excite_server.h"
 #include "server/service/logging.h"
 
@@ -27,6 +29,14 @@ ABSL_FLAG(std::string, data_dir, "./.excite-data",
 ABSL_FLAG(std::string, log_level, "info", "debug, info, warning or error.");
 ABSL_FLAG(int, max_message_mb, 64, "Largest gRPC message received or sent, in MiB.");
 ABSL_FLAG(int64_t, max_sessions, 10000, "Cap on the number of sessions.");
+ABSL_FLAG(std::string, tls_cert, "",
+          "PEM server certificate (chain); with --tls_key: TLS.");
+ABSL_FLAG(std::string, tls_key, "", "PEM private key of --tls_cert.");
+ABSL_FLAG(std::string, tls_client_ca, "",
+          "PEM CA bundle: require client certificates it signed (mutual TLS).");
+ABSL_FLAG(std::string, auth_token_file, "",
+          "File holding a bearer token every call must present (\"authorization: "
+          "Bearer <token>\"), health checks excepted; default: $EXCITE_AUTH_TOKEN.");
 ABSL_FLAG(int64_t, max_samples_per_session, 20000, "Cap on the samples of one session.");
 
 namespace {
@@ -62,6 +72,20 @@ int Run(int argc, char** argv) {
   options.max_message_mb = absl::GetFlag(FLAGS_max_message_mb);
   options.limits.max_sessions = absl::GetFlag(FLAGS_max_sessions);
   options.limits.max_samples_per_session = absl::GetFlag(FLAGS_max_samples_per_session);
+  options.security.tls_cert_file = absl::GetFlag(FLAGS_tls_cert);
+  options.security.tls_key_file = absl::GetFlag(FLAGS_tls_key);
+  options.security.tls_client_ca_file = absl::GetFlag(FLAGS_tls_client_ca);
+  if (const std::string path = absl::GetFlag(FLAGS_auth_token_file); !path.empty()) {
+    absl::StatusOr<std::string> token = excite::service::ReadSecretFile(path);
+    if (!token.ok()) {
+      std::fprintf(stderr, "excite-server: --auth_token_file: %s\n",
+                   std::string(token.status().message()).c_str());
+      return 2;
+    }
+    options.security.auth_token = *std::move(token);
+  } else if (const char* env = std::getenv("EXCITE_AUTH_TOKEN"); env != nullptr) {
+    options.security.auth_token = env;
+  }
   absl::StatusOr<std::unique_ptr<excite::service::ExciteServer>> server =
       excite::service::ExciteServer::Start(options);
   if (!server.ok()) {

@@ -58,8 +58,17 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int bound_port = 0;
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(),
-                           &bound_port);
+  absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials =
+      MakeServerCredentials(options.security, server->host_);
+  if (!credentials.ok()) return credentials.status();
+  if (!IsLoopbackHost(server->host_) && options.security.tls_cert_file.empty() &&
+      options.security.auth_token.empty()) {
+    Log(LogLevel::kWarning,
+        absl::StrCat("listening on ", server->host_,
+                     " without TLS and without a token: anyone who can reach the port "
+                     "can use it (see --tls_cert, --tls_key, --auth_token_file)"));
+  }
+  builder.AddListeningPort(options.listen, *credentials, &bound_port);
   const int max_bytes = options.max_message_mb * 1024 * 1024;
   builder.SetMaxReceiveMessageSize(max_bytes);
   builder.SetMaxSendMessageSize(max_bytes);

@@ -7,6 +7,7 @@
 
 #include "absl/status/statusor.h"
 #include "grpcpp/server.h"
+#include "server/service/auth.h"
 #include "server/service/exploration_service.h"
 #include "server/service/session_registry.h"
 #include "server/store/sqlite_store.h"
@@ -21,6 +22,9 @@ struct ServerOptions {
   // Largest message received or sent.
   int max_message_mb = 64;
   ServiceLimits limits;
+  // TLS, mutual TLS and the bearer token (see auth.h). Default: plaintext, no
+  // token (fine on loopback; a warning is logged on other addresses).
+  SecurityOptions security;
 };
 
 // The whole server: store, session registry, ExplorationService, grpc.health.v1
