@@ -38,6 +38,8 @@ ABSL_FLAG(std::string, auth_token_file, "",
           "File holding a bearer token every call must present (\"authorization: "
           "Bearer <token>\"), health checks excepted; default: $EXCITE_AUTH_TOKEN.");
 ABSL_FLAG(int64_t, max_samples_per_session, 20000, "Cap on the samples of one session.");
+ABSL_FLAG(int64_t, max_predict_points, 100000, "Cap on the points of one Predict call.");
+ABSL_FLAG(int32_t, max_horizon, 200, "Cap on a new session's horizon (at most 200).");
 
 namespace {
 
@@ -72,6 +74,8 @@ int Run(int argc, char** argv) {
   options.max_message_mb = absl::GetFlag(FLAGS_max_message_mb);
   options.limits.max_sessions = absl::GetFlag(FLAGS_max_sessions);
   options.limits.max_samples_per_session = absl::GetFlag(FLAGS_max_samples_per_session);
+  options.limits.max_predict_points = absl::GetFlag(FLAGS_max_predict_points);
+  options.limits.max_horizon = absl::GetFlag(FLAGS_max_horizon);
   options.security.tls_cert_file = absl::GetFlag(FLAGS_tls_cert);
   options.security.tls_key_file = absl::GetFlag(FLAGS_tls_key);
   options.security.tls_client_ca_file = absl::GetFlag(FLAGS_tls_client_ca);

@@ -313,6 +313,30 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit() {
   return summary;
 }
 
+absl::Status DynamicsModel::SeedWarmStart(std::vector<Hyperparameters> data_units) {
+  State& s = *state_;
+  if (s.fitted) {
+    return absl::FailedPreconditionError("SeedWarmStart: the model is already fitted");
+  }
+  if (static_cast<int>(data_units.size()) != s.state_dim) {
+    return absl::InvalidArgumentError(absl::StrCat("SeedWarmStart: need ", s.state_dim,
+                                                   " hyperparameter sets, got ",
+                                                   data_units.size()));
+  }
+  for (const Hyperparameters& h : data_units) {
+    if (h.lengthscales.size() != s.z_dim || !PositiveFinite(h.signal_variance) ||
+        !PositiveFinite(h.noise_variance) ||
+        !(h.lengthscales.array().isFinite() && h.lengthscales.array() > 0.0).all()) {
+      return absl::InvalidArgumentError(
+          "SeedWarmStart: need z_dim positive finite lengthscales and positive finite "
+          "variances");
+    }
+  }
+  s.data_hyperparameters = std::move(data_units);
+  s.default_start_n = s.n();
+  return absl::OkStatus();
+}
+
 void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
                             Eigen::MatrixXd* variance,
                             std::vector<Eigen::MatrixXd>* mean_jacobians,

@@ -77,6 +77,17 @@ class DynamicsModel final : public DynamicsPredictor {
   // FAILED_PRECONDITION with fewer than 2 samples.
   absl::StatusOr<FitSummary> Refit();
 
+  // Seeds the warm start of the next Refit() with `data_units` (one per output,
+  // in data units, e.g. hyperparameters() saved before a restart): that fit
+  // starts from them as if they came from a previous fit, and until then
+  // hyperparameters() returns them (fitted() stays false). The data-driven
+  // default starts are rerun only once the data grows by
+  // fit.default_start_growth from the sample count at this call, so call it
+  // after adding the restored samples. Ignored by Refit() when fit_kernel is
+  // off. INVALID_ARGUMENT on a wrong count or shape or a non-positive or
+  // non-finite value (nothing changes then); FAILED_PRECONDITION once fitted().
+  absl::Status SeedWarmStart(std::vector<Hyperparameters> data_units);
+
   int sample_count() const;
   // Samples added since the last Refit().
   int samples_since_fit() const;
@@ -93,7 +104,8 @@ class DynamicsModel final : public DynamicsPredictor {
 
   // Noise variance of each output's target (data units), for "latent + noise".
   Eigen::VectorXd noise_variances() const;
-  // Per output, in data units; empty before the first Refit().
+  // Per output, in data units; empty before the first Refit() unless seeded
+  // by SeedWarmStart().
   std::vector<Hyperparameters> hyperparameters() const;
   // Per output, of the targets in data units (the normalised LML minus
   // n log(output std)); empty before the first Refit().

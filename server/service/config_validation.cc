@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "server/gp/hyperparameter_fit.h"
 #include "server/plan/planner.h"
+#include "server/service/field_violation.h"
 
 namespace excite::service {
 namespace {
@@ -20,7 +21,7 @@ std::string Indexed(absl::string_view path, absl::string_view name, int index) {
 }
 
 absl::Status Invalid(absl::string_view field, absl::string_view what) {
-  return absl::InvalidArgumentError(absl::StrCat(field, ": ", what));
+  return FieldViolationError(field, what);
 }
 
 // An int field with a default for 0 and an inclusive valid range.

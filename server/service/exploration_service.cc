@@ -8,6 +8,8 @@
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
+#include "server/service/config_validation.h"
+#include "server/service/field_violation.h"
 #include "server/service/grpc_status.h"
 #include "server/service/logging.h"
 #include "server/service/request_validation.h"
@@ -96,6 +98,15 @@ grpc::Status ExplorationService::CreateSession(grpc::ServerContext* /*context*/,
                                                const v1::CreateSessionRequest* request,
                                                v1::Session* response) {
   return RunRpc("CreateSession", request->session_id(), [&]() -> absl::Status {
+    // The server's horizon cap applies to the horizon after defaults (an invalid
+    // config is reported by Create below).
+    if (absl::StatusOr<v1::SessionConfig> validated =
+            ValidatedSessionConfig(request->config(), "config");
+        validated.ok() && validated->horizon() > limits_.max_horizon) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "config.horizon: ", validated->horizon(), " exceeds this server's cap of ",
+          limits_.max_horizon, " (--max_horizon)"));
+    }
     absl::StatusOr<std::shared_ptr<Session>> session =
         registry_->Create(request->session_id(), request->config());
     if (!session.ok()) return session.status();
@@ -175,9 +186,9 @@ grpc::Status ExplorationService::AddData(grpc::ServerContext* context,
       }
       if (absl::Status s = ValidateTransitions(session->config(), request.transitions());
           !s.ok()) {
-        return absl::Status(
-            s.code(), absl::StrCat("AddData message ", message_index, ": ", s.message(),
-                                   " (earlier messages of the stream are stored)"));
+        return WithMessage(
+            s, absl::StrCat("AddData message ", message_index, ": ", s.message(),
+                            " (earlier messages of the stream are stored)"));
       }
       absl::StatusOr<v1::AddDataResponse> added =
           session->AddTransitions(request.transitions(), limits_.max_samples_per_session);

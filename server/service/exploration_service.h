@@ -18,6 +18,9 @@ struct ServiceLimits {
   // Exact GPs cost O(n^2) memory and O(n^3) per refit: beyond this, use fewer.
   int64_t max_samples_per_session = 20000;
   int64_t max_predict_points = 100000;
+  // Largest SessionConfig.horizon (after defaults) a new session may have;
+  // config validation allows up to kMaxHorizon.
+  int32_t max_horizon = 200;
 };
 
 // The synchronous gRPC service: translates requests into session calls and

@@ -7,7 +7,10 @@
 namespace excite::service {
 
 // Same code (the numeric values of absl::StatusCode and grpc::StatusCode agree),
-// same message.
+// same message. A status carrying a field path (FieldViolationError) also gets
+// binary error details: a serialized google.rpc.Status (same code and message)
+// whose details hold one google.rpc.BadRequest naming the field, sent by gRPC
+// as the grpc-status-details-bin trailer.
 grpc::Status ToGrpcStatus(const absl::Status& status);
 
 }  // namespace excite::service

@@ -5,6 +5,7 @@
 
 #include "absl/container/flat_hash_map.h"
 #include "absl/strings/str_cat.h"
+#include "server/service/field_violation.h"
 
 namespace excite::service {
 namespace {
@@ -13,14 +14,14 @@ absl::Status CheckVector(absl::string_view field,
                          const google::protobuf::RepeatedField<double>& values,
                          int expected_size, absl::string_view size_name) {
   if (values.size() != expected_size) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": must have ", size_name, " (",
-                                                   expected_size, ") numbers, got ",
-                                                   values.size()));
+    return FieldViolationError(field,
+                               absl::StrCat("must have ", size_name, " (", expected_size,
+                                            ") numbers, got ", values.size()));
   }
   for (int i = 0; i < values.size(); ++i) {
     if (!std::isfinite(values[i])) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(field, "[", i, "]: must be finite, got ", values[i]));
+      return FieldViolationError(absl::StrCat(field, "[", i, "]"),
+                                 absl::StrCat("must be finite, got ", values[i]));
     }
   }
   return absl::OkStatus();
@@ -52,18 +53,19 @@ absl::Status ValidateTransitions(
       return s;
     }
     if (t.sequence() < 0) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ".sequence: must be >= 0, got ", t.sequence()));
+      return FieldViolationError(absl::StrCat(path, ".sequence"),
+                                 absl::StrCat("must be >= 0, got ", t.sequence()));
     }
     if (!std::isfinite(t.timestamp_s())) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ".timestamp_s: must be finite, got ", t.timestamp_s()));
+      return FieldViolationError(absl::StrCat(path, ".timestamp_s"),
+                                 absl::StrCat("must be finite, got ", t.timestamp_s()));
     }
     auto [it, inserted] = first_index.emplace(t.sequence(), i);
     if (!inserted) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          path, ".sequence: ", t.sequence(), " appears twice in one message (also in ",
-          "transitions[", it->second, "])"));
+      return FieldViolationError(
+          absl::StrCat(path, ".sequence"),
+          absl::StrCat(t.sequence(), " appears twice in one message (also in ",
+                       "transitions[", it->second, "])"));
     }
   }
   return absl::OkStatus();
@@ -74,14 +76,16 @@ absl::Status ValidatePredictInputs(const v1::SessionConfig& config,
                                    int64_t max_points) {
   const int z_dim = config.state_dim() + config.input_dim();
   if (inputs.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "inputs: must hold at least one point z = (x, u) of state_dim + input_dim (",
-        z_dim, ") numbers"));
+    return FieldViolationError(
+        "inputs", absl::StrCat("must hold at least one point z = (x, u) of state_dim + "
+                               "input_dim (",
+                               z_dim, ") numbers"));
   }
   if (inputs.size() % z_dim != 0) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "inputs: ", inputs.size(),
-        " numbers is not a multiple of state_dim + input_dim (", z_dim, ")"));
+    return FieldViolationError(
+        "inputs", absl::StrCat(inputs.size(),
+                               " numbers is not a multiple of state_dim + input_dim (",
+                               z_dim, ")"));
   }
   const int64_t points = inputs.size() / z_dim;
   if (points > max_points) {
@@ -91,8 +95,9 @@ absl::Status ValidatePredictInputs(const v1::SessionConfig& config,
   }
   for (int i = 0; i < inputs.size(); ++i) {
     if (!std::isfinite(inputs[i])) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "inputs[", i, "] (point ", i / z_dim, "): must be finite, got ", inputs[i]));
+      return FieldViolationError(
+          absl::StrCat("inputs[", i, "]"),
+          absl::StrCat("(point ", i / z_dim, ") must be finite, got ", inputs[i]));
     }
   }
   return absl::OkStatus();

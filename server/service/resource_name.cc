@@ -4,6 +4,7 @@
 #include "absl/strings/escaping.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "server/service/field_violation.h"
 
 namespace excite::service {
 namespace {
@@ -24,15 +25,14 @@ std::string SessionName(absl::string_view id) { return absl::StrCat(kPrefix, id)
 absl::StatusOr<std::string> ParseSessionName(absl::string_view name,
                                              absl::string_view field) {
   if (name.empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(field, ": required (a session name \"sessions/{id}\")"));
+    return FieldViolationError(field, "required (a session name \"sessions/{id}\")");
   }
   if (!absl::StartsWith(name, kPrefix) ||
       !IsValidSessionId(name.substr(kPrefix.size()))) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(field, ": \"", absl::CHexEscape(name.substr(0, 200)),
-                     "\" is not a session name \"sessions/{id}\" with id of 1 to 63 "
-                     "characters [a-z0-9-]"));
+    return FieldViolationError(
+        field, absl::StrCat("\"", absl::CHexEscape(name.substr(0, 200)),
+                            "\" is not a session name \"sessions/{id}\" with id of 1 to "
+                            "63 characters [a-z0-9-]"));
   }
   return std::string(name.substr(kPrefix.size()));
 }

@@ -115,6 +115,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
         options.fixed = *std::move(saved);
       }
     }
+    const bool options_fit_kernel = options.fit_kernel;
     absl::StatusOr<gp::DynamicsModel> model =
         gp::DynamicsModel::Create(std::move(options));
     if (!model.ok()) {
@@ -143,6 +144,18 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
       if (absl::Status s = model->AddSamples(states, inputs, next_states); !s.ok()) {
         return absl::Status(s.code(), absl::StrCat("session ", record.id,
                                                    ": restoring samples: ", s.message()));
+      }
+    }
+    if (options_fit_kernel) {
+      // The next refit starts from the last saved fit (a cache: unusable bytes
+      // just mean a cold start).
+      if (std::optional<std::vector<gp::Hyperparameters>> saved =
+              ParseSavedHyperparameters(record.hyperparameters, config)) {
+        if (absl::Status s = model->SeedWarmStart(*std::move(saved)); !s.ok()) {
+          Log(LogLevel::kWarning,
+              absl::StrCat("session ", record.id,
+                           ": saved hyperparameters not used: ", s.message()));
+        }
       }
     }
     std::shared_ptr<Session> session(
@@ -175,7 +188,9 @@ void Session::PublishInfo() {
   info.sample_count = sample_count_;
   info.last_sequence = last_sequence_;
   info.model_version = model_version_;
-  if (model_.fitted()) {
+  // After a restart and before the first refit: the saved hyperparameters (the
+  // warm start of that refit), without a log marginal likelihood.
+  {
     const std::vector<gp::Hyperparameters> hyperparameters = model_.hyperparameters();
     const std::vector<double> lml = model_.log_marginal_likelihoods();
     for (size_t i = 0; i < hyperparameters.size(); ++i) {

@@ -45,7 +45,9 @@ class Session {
   // A session rebuilt from the store: its record and all its samples (in any
   // order). The GP gets every sample; it is fitted lazily at first use. With
   // refit.never the saved hyperparameters are reused as fixed ones, so a restart
-  // does not change them. model_version resumes at a value no lower than any
+  // does not change them; otherwise (kernel.fit) they seed the warm start of
+  // the first refit and Describe() reports them (without a log marginal
+  // likelihood) until it ran. model_version resumes at a value no lower than any
   // served before the restart (saved version + sample count).
   static absl::StatusOr<std::shared_ptr<Session>> Restore(
       const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
@@ -56,8 +58,8 @@ class Session {
   const std::string& name() const { return name_; }
   const v1::SessionConfig& config() const { return config_; }
 
-  // name, config, sample_count, last_sequence, model_version and (when fitted)
-  // outputs.
+  // name, config, sample_count, last_sequence, model_version and (when fitted,
+  // or restored with saved hyperparameters) outputs.
   v1::Session Describe() const;
 
   // One AddData message: validates it completely (request_validation.h), stores

@@ -6,6 +6,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "server/service/config_validation.h"
+#include "server/service/field_violation.h"
 #include "server/service/logging.h"
 #include "server/service/resource_name.h"
 
@@ -73,9 +74,9 @@ std::string SessionRegistry::GenerateId() {
 absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Create(
     const std::string& session_id, const v1::SessionConfig& config) {
   if (!session_id.empty() && !IsValidSessionId(session_id)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("session_id: \"", absl::CHexEscape(session_id.substr(0, 100)),
-                     "\" must be 1 to 63 characters [a-z0-9-]"));
+    return FieldViolationError(
+        "session_id", absl::StrCat("\"", absl::CHexEscape(session_id.substr(0, 100)),
+                                   "\" must be 1 to 63 characters [a-z0-9-]"));
   }
   absl::StatusOr<v1::SessionConfig> validated = ValidatedSessionConfig(config, "config");
   if (!validated.ok()) return validated.status();

@@ -17,11 +17,15 @@
 #include "absl/strings/ascii.h"
 #include "client/excite_client.h"
 #include "gmock/gmock.h"
+#include "google/rpc/error_details.pb.h"
+#include "google/rpc/status.pb.h"
 #include "grpcpp/create_channel.h"
 #include "grpcpp/security/credentials.h"
 #include "gtest/gtest.h"
 #include "server/service/config_text.h"
+#include "server/service/config_validation.h"
 #include "server/service/excite_server.h"
+#include "server/store/sqlite_store.h"
 #include "tests/service/pendulum_data.h"
 #include "tests/service/temp_dir.h"
 
@@ -492,6 +496,196 @@ TEST_F(ServiceTest, RefitNeverKeepsSavedHyperparametersAcrossRestart) {
   EXPECT_NEAR(after->mean(1), before->mean(1), 1e-4);
 }
 
+// A refitting session comes back from a restart with its last fitted
+// hyperparameters (reported before any new refit, and the warm start of the
+// first one).
+TEST_F(ServiceTest, RestartRestoresSavedHyperparameters) {
+  const std::string name = Create("warm").name();
+  Add(name, {PendulumTransitions(25, 0, 21)});
+  v1::PredictRequest predict;
+  predict.set_session(name);
+  for (double v : {0.3, -0.4, 1.0}) predict.add_inputs(v);
+  ASSERT_TRUE(client_->Predict(predict).ok());
+  const v1::Session fitted = *client_->GetSession(name);
+  ASSERT_EQ(fitted.outputs_size(), 2);
+
+  StopServer();
+  StartServer();
+  const v1::Session restored = *client_->GetSession(name);
+  ASSERT_EQ(restored.outputs_size(), 2);  // before any refit
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(restored.outputs(i).hyperparameters().SerializeAsString(),
+              fitted.outputs(i).hyperparameters().SerializeAsString());
+  }
+  // The first refit starts there: with the same data it stays close.
+  ASSERT_TRUE(client_->Predict(predict).ok());
+  const v1::Session refitted = *client_->GetSession(name);
+  ASSERT_EQ(refitted.outputs_size(), 2);
+  for (int i = 0; i < 2; ++i) {
+    const v1::Hyperparameters& a = fitted.outputs(i).hyperparameters();
+    const v1::Hyperparameters& b = refitted.outputs(i).hyperparameters();
+    EXPECT_NEAR(std::log(b.signal_variance()), std::log(a.signal_variance()), 0.1);
+  }
+}
+
+// Restart time of a server holding 100 sessions x 1000 samples (a timing
+// print, not an assertion). GPs are rebuilt at load (data copied in, no
+// factorisation) and fitted lazily at first use.
+TEST_F(ServiceTest, RestartTimeFor100SessionsOf1000Samples) {
+  const std::string name = Create("seed").name();
+  Add(name, {PendulumTransitions(25, 0, 3)});
+  v1::PredictRequest predict;
+  predict.set_session(name);
+  for (double v : {0.3, -0.4, 1.0}) predict.add_inputs(v);
+  ASSERT_TRUE(client_->Predict(predict).ok());
+  v1::Session saved_outputs;
+  *saved_outputs.mutable_outputs() = client_->GetSession(name)->outputs();
+  StopServer();
+  {
+    absl::StatusOr<std::unique_ptr<store::SqliteStore>> store =
+        store::SqliteStore::Open(tmp_.path() + "/data");
+    ASSERT_TRUE(store.ok()) << store.status();
+    absl::StatusOr<v1::SessionConfig> config =
+        ValidatedSessionConfig(PendulumConfig(), "config");
+    ASSERT_TRUE(config.ok()) << config.status();
+    const std::vector<v1::Transition> data = PendulumTransitions(1000, 0, 4);
+    std::vector<store::SampleRecord> samples;
+    for (const v1::Transition& t : data) {
+      store::SampleRecord r;
+      r.sequence = t.sequence();
+      r.state.assign(t.state().begin(), t.state().end());
+      r.input.assign(t.input().begin(), t.input().end());
+      r.next_state.assign(t.next_state().begin(), t.next_state().end());
+      samples.push_back(std::move(r));
+    }
+    for (int i = 0; i < 100; ++i) {
+      store::SessionRecord record;
+      record.id = "bulk-" + std::to_string(i);
+      record.config = config->SerializeAsString();
+      ASSERT_TRUE((*store)->CreateSession(record).ok());
+      ASSERT_TRUE((*store)->InsertSamples(record.id, samples).ok());
+      ASSERT_TRUE(
+          (*store)->SaveModelState(record.id, saved_outputs.SerializeAsString(), 1).ok());
+    }
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  StartServer();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::cout << "restart with 100 sessions x 1000 samples: " << seconds << " s\n";
+  absl::StatusOr<v1::Session> bulk = client_->GetSession("sessions/bulk-42");
+  ASSERT_TRUE(bulk.ok()) << bulk.status();
+  EXPECT_EQ(bulk->sample_count(), 1000);
+  EXPECT_EQ(bulk->outputs_size(), 2);
+}
+
+// google.rpc.BadRequest for the validation failure, parsed from the binary
+// error details (grpc-status-details-bin) of a raw gRPC call.
+google::rpc::BadRequest BadRequestOf(const grpc::Status& status) {
+  google::rpc::Status details;
+  google::rpc::BadRequest bad_request;
+  EXPECT_FALSE(status.error_details().empty()) << status.error_message();
+  EXPECT_TRUE(details.ParseFromString(status.error_details()));
+  EXPECT_EQ(details.code(), static_cast<int>(status.error_code()));
+  EXPECT_EQ(details.message(), status.error_message());
+  EXPECT_EQ(details.details_size(), 1);
+  if (details.details_size() == 1) {
+    EXPECT_TRUE(details.details(0).UnpackTo(&bad_request));
+  }
+  return bad_request;
+}
+
+TEST_F(ServiceTest, InvalidArgumentCarriesBadRequestFieldViolations) {
+  // A config error.
+  v1::CreateSessionRequest create;
+  create.set_session_id("details");
+  *create.mutable_config() = PendulumConfig();
+  create.mutable_config()->mutable_input_bounds(0)->set_lower(5);
+  {
+    grpc::ClientContext context;
+    v1::Session ignored;
+    const grpc::Status status = stub_->CreateSession(&context, create, &ignored);
+    ASSERT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    const google::rpc::BadRequest bad = BadRequestOf(status);
+    ASSERT_EQ(bad.field_violations_size(), 1);
+    EXPECT_THAT(bad.field_violations(0).field(), HasSubstr("config.input_bounds[0]"));
+    EXPECT_FALSE(bad.field_violations(0).description().empty());
+    EXPECT_THAT(status.error_message(), HasSubstr(bad.field_violations(0).field()));
+  }
+  // A request error in the second message of an AddData stream.
+  const std::string name = Create("details-ok").name();
+  v1::AddDataRequest good;
+  good.set_session(name);
+  for (const v1::Transition& t : PendulumTransitions(3, 0, 9))
+    *good.add_transitions() = t;
+  v1::AddDataRequest bad_message = good;
+  for (v1::Transition& t : *bad_message.mutable_transitions()) {
+    t.set_sequence(t.sequence() + 3);
+  }
+  bad_message.mutable_transitions(2)->set_next_state(1, std::nan(""));
+  v1::AddDataResponse ignored;
+  const grpc::Status status = RawAddData({good, bad_message}, &ignored);
+  ASSERT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  const google::rpc::BadRequest bad = BadRequestOf(status);
+  ASSERT_EQ(bad.field_violations_size(), 1);
+  EXPECT_EQ(bad.field_violations(0).field(), "transitions[2].next_state[1]");
+  EXPECT_THAT(bad.field_violations(0).description(), HasSubstr("must be finite"));
+  // Errors that are not about a field carry no details.
+  grpc::ClientContext context;
+  v1::GetSessionRequest get;
+  get.set_name("sessions/nope");
+  v1::Session session;
+  const grpc::Status not_found = stub_->GetSession(&context, get, &session);
+  EXPECT_EQ(not_found.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_TRUE(not_found.error_details().empty());
+}
+
+// Every configurable cap is RESOURCE_EXHAUSTED with a message naming it.
+TEST(ServiceCapsTest, EachCapIsResourceExhausted) {
+  excite::testing::TempDir tmp;
+  ServerOptions options;
+  options.listen = "127.0.0.1:0";
+  options.data_dir = tmp.path() + "/data";
+  options.max_message_mb = 1;
+  options.limits.max_sessions = 2;
+  options.limits.max_samples_per_session = 10;
+  options.limits.max_predict_points = 3;
+  options.limits.max_horizon = 5;
+  absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
+  ASSERT_TRUE(server.ok()) << server.status();
+  auto client = client::ExciteClient::Connect((*server)->address());
+
+  // Horizon: 5 passes, 6 does not (and nothing is stored).
+  v1::SessionConfig config = PendulumConfig();
+  config.set_horizon(6);
+  ExpectStatus(client->CreateSession(config, "a").status(),
+               absl::StatusCode::kResourceExhausted, "cap of 5 (--max_horizon)");
+  config.set_horizon(5);
+  ASSERT_TRUE(client->CreateSession(config, "a").ok());
+  ASSERT_TRUE(client->CreateSession(config, "b").ok());
+  // Sessions: 2.
+  ExpectStatus(client->CreateSession(config, "c").status(),
+               absl::StatusCode::kResourceExhausted, "2 sessions, its cap");
+  // Samples per session: 10 (an add that would cross it stores nothing).
+  ASSERT_TRUE(client->AddData("sessions/a", {PendulumTransitions(8, 0, 1)}).ok());
+  ExpectStatus(client->AddData("sessions/a", {PendulumTransitions(3, 8, 2)}).status(),
+               absl::StatusCode::kResourceExhausted, "cap of 10 per session");
+  EXPECT_EQ(client->GetSession("sessions/a")->sample_count(), 8);
+  // Points per Predict: 3.
+  v1::PredictRequest predict;
+  predict.set_session("sessions/a");
+  for (int i = 0; i < 4 * 3; ++i) predict.add_inputs(0.1);
+  ExpectStatus(client->Predict(predict).status(), absl::StatusCode::kResourceExhausted,
+               "4 points exceed the cap of 3");
+  predict.mutable_inputs()->Truncate(3 * 3);
+  EXPECT_TRUE(client->Predict(predict).ok());
+  // Message size: 1 MiB (gRPC's own check, before the service sees it).
+  for (int i = 0; i < 200000; ++i) predict.add_inputs(0.1);
+  const absl::Status too_big = client->Predict(predict).status();
+  EXPECT_EQ(too_big.code(), absl::StatusCode::kResourceExhausted) << too_big;
+  EXPECT_THAT(std::string(too_big.message()), HasSubstr("larger than max"));
+}
+
 // Sessions work in parallel; one session's calls are serialised. Four threads
 // stream into and plan for their own sessions while a fifth lists and reads.
 TEST_F(ServiceTest, ConcurrentSessions) {
@@ -629,7 +823,7 @@ TEST_F(ServiceTest, ErrorCodes) {
   predict.add_inputs(0.0);
   predict.add_inputs(std::nan(""));
   ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kInvalidArgument,
-               "inputs[5] (point 1): must be finite");
+               "inputs[5]: (point 1) must be finite");
   predict.set_session("sessions/");
   ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kInvalidArgument,
                "session:");

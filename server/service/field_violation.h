@@ -1,0 +1,27 @@
+#ifndef EXCITE_SERVER_SERVICE_FIELD_VIOLATION_H_
+#define EXCITE_SERVER_SERVICE_FIELD_VIOLATION_H_
+
+#include <optional>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/strings/string_view.h"
+
+namespace excite::service {
+
+// Validation errors carry the path of the offending field structurally, as an
+// absl::Status payload, besides naming it in the message. ToGrpcStatus turns it
+// into a google.rpc.BadRequest field violation (grpc-status-details-bin).
+
+// INVALID_ARGUMENT "<field>: <description>" with `field` attached.
+absl::Status FieldViolationError(absl::string_view field, absl::string_view description);
+
+// The field attached by FieldViolationError (kept by WithMessage), if any.
+std::optional<std::string> ViolatedField(const absl::Status& status);
+
+// `status` with the same code and payloads and a new message. OK stays OK.
+absl::Status WithMessage(const absl::Status& status, absl::string_view message);
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_FIELD_VIOLATION_H_
