@@ -581,7 +581,8 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
     lines = [
         f"# Paper benchmark: final RMSE and coverage ({meta['mode']})",
         "",
-        f"- Mode: {mode_text}; samples per trial: {samples}.",
+        f"- Mode: {mode_text}{meta.get('overrides', '')}; samples per trial: "
+        f"{samples}.",
         f"- Run: {meta['started']}, {fmt_duration(meta.get('wall_s'))} wall, "
         f"--jobs {meta['jobs']}, commit {meta['commit']}.",
         f"- Machine: {meta['machine']}.",
@@ -768,6 +769,10 @@ def main(argv):
         "systems": systems, "strategies": strategies,
         "planned": {f"{k[0]}/{k[1]}": v for k, v in planned.items()},
         "samples": samples_of, "skipped": skipped,
+        "overrides": "".join(
+            f", {name} {value} (overrides benchmark.json)"
+            for name, value in (("--trials", args.trials), ("--samples", args.samples))
+            if value),
     }
     t0 = time.monotonic()
     server = Server(args.server_bin, out_dir, args.keep_data)
