@@ -2,7 +2,7 @@
 # The main job: installs what is missing, builds, starts excite-server on loopback
 # (data in ./.excite-data), and runs excite-sim as a separate process: a pendulum
 # explored with the rec strategy. Extra arguments go to excite-sim
-# (e.g. --strategy=pa --samples=150).
+# and override these (e.g. --strategy=pa --samples=150); the last value of a flag wins.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
@@ -25,4 +25,4 @@ done
 echo "excite-server listening on $address (pid $server)"
 
 "$bin/sim/excite-sim" --server="$address" --config=sim/configs/pendulum.textproto \
-  --strategy=rec --summary=results/pendulum-rec.json "$@"
+  --strategy=rec --summary=results/demo.json "$@"
