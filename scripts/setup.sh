@@ -8,9 +8,8 @@ PACKAGES=(
   build-essential cmake pkg-config git
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libeigen3-dev coinor-libipopt-dev libabsl-dev liblbfgspp-dev libsqlite3-dev
-  libmujoco-dev libqhull-dev  # Debian's mujoco CMake package names qhull's headers
+  libmujoco-dev  # found by path: its CMake package would demand OpenGL and qhull
   libgtest-dev libgmock-dev libbenchmark-dev
-  libgl-dev libopengl-dev  # mujoco's CMake package finds OpenGL (only recommended)
   liblapack-dev libblas-dev  # ipopt.pc links -llapack -lblas (only recommended)
   # Python client and its tests (Debian's /usr/bin/python3; nothing from PyPI)
   python3-grpcio python3-protobuf python3-numpy python3-pytest python3-yaml
