@@ -29,6 +29,9 @@ ABSL_FLAG(std::string, data_dir, "./.excite-data",
 ABSL_FLAG(std::string, log_level, "info", "debug, info, warning or error.");
 ABSL_FLAG(int, max_message_mb, 64, "Largest gRPC message received or sent, in MiB.");
 ABSL_FLAG(int64_t, max_sessions, 10000, "Cap on the number of sessions.");
+ABSL_FLAG(std::string, metrics_listen, "",
+          "HOST:PORT of a Prometheus endpoint (plain HTTP GET /metrics, no token); "
+          "empty: off.");
 ABSL_FLAG(std::string, tls_cert, "",
           "PEM server certificate (chain); with --tls_key: TLS.");
 ABSL_FLAG(std::string, tls_key, "", "PEM private key of --tls_cert.");
@@ -76,6 +79,7 @@ int Run(int argc, char** argv) {
   options.limits.max_samples_per_session = absl::GetFlag(FLAGS_max_samples_per_session);
   options.limits.max_predict_points = absl::GetFlag(FLAGS_max_predict_points);
   options.limits.max_horizon = absl::GetFlag(FLAGS_max_horizon);
+  options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
   options.security.tls_cert_file = absl::GetFlag(FLAGS_tls_cert);
   options.security.tls_key_file = absl::GetFlag(FLAGS_tls_key);
   options.security.tls_client_ca_file = absl::GetFlag(FLAGS_tls_client_ca);
@@ -97,6 +101,10 @@ int Run(int argc, char** argv) {
     return 1;
   }
 
+  if ((*server)->metrics_port() > 0) {
+    Log(LogLevel::kInfo,
+        absl::StrCat("metrics on port ", (*server)->metrics_port(), " (GET /metrics)"));
+  }
   std::thread signal_thread([&signals, s = server->get()]() {
     int signal = 0;
     if (sigwait(&signals, &signal) != 0) return;

@@ -1,6 +1,7 @@
 #include "server/service/excite_server.h"
 
 #include <utility>
+#include <vector>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -75,11 +76,42 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
   // Never share a port with another process (gRPC enables SO_REUSEPORT otherwise).
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(server->service_.get());
+  if (!options.metrics_listen.empty()) {
+    server->metrics_ = std::make_unique<Metrics>();
+    std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
+        interceptors;
+    interceptors.push_back(MakeMetricsInterceptorFactory(server->metrics_.get()));
+    builder.experimental().SetInterceptorCreators(std::move(interceptors));
+  }
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || bound_port == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", options.listen));
   }
   server->port_ = bound_port;
+  if (server->metrics_ != nullptr) {
+    SessionRegistry* sessions = server->registry_.get();
+    server->metrics_->AddGauge("excite_sessions", "Sessions held.", [sessions]() {
+      return static_cast<double>(sessions->size());
+    });
+    server->metrics_->AddGauge(
+        "excite_samples", "Samples held over all sessions.", [sessions]() {
+          double total = 0;
+          std::string token;
+          do {
+            absl::StatusOr<SessionRegistry::Page> page = sessions->List(1000, token);
+            if (!page.ok()) break;
+            for (const std::shared_ptr<Session>& session : page->sessions) {
+              total += static_cast<double>(session->Describe().sample_count());
+            }
+            token = page->next_page_token;
+          } while (!token.empty());
+          return total;
+        });
+    absl::StatusOr<std::unique_ptr<MetricsHttpServer>> http =
+        MetricsHttpServer::Start(options.metrics_listen, server->metrics_.get());
+    if (!http.ok()) return http.status();
+    server->metrics_http_ = *std::move(http);
+  }
   if (grpc::HealthCheckServiceInterface* health =
           server->server_->GetHealthCheckService()) {
     health->SetServingStatus(true);
@@ -92,6 +124,10 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
 ExciteServer::~ExciteServer() {
   Shutdown(std::chrono::seconds(1));
   if (server_ != nullptr) server_->Wait();
+}
+
+int ExciteServer::metrics_port() const {
+  return metrics_http_ != nullptr ? metrics_http_->port() : 0;
 }
 
 std::string ExciteServer::address() const {

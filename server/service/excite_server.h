@@ -9,6 +9,7 @@
 #include "grpcpp/server.h"
 #include "server/service/auth.h"
 #include "server/service/exploration_service.h"
+#include "server/service/metrics.h"
 #include "server/service/session_registry.h"
 #include "server/store/sqlite_store.h"
 
@@ -25,6 +26,9 @@ struct ServerOptions {
   // TLS, mutual TLS and the bearer token (see auth.h). Default: plaintext, no
   // token (fine on loopback; a warning is logged on other addresses).
   SecurityOptions security;
+  // HOST:PORT of the Prometheus endpoint (GET /metrics, plain HTTP, no token);
+  // empty: no metrics. Port 0 picks a free one (metrics_port()).
+  std::string metrics_listen;
 };
 
 // The whole server: store, session registry, ExplorationService, grpc.health.v1
@@ -45,6 +49,8 @@ class ExciteServer {
   // The host of the listen address and the port actually bound.
   const std::string& host() const { return host_; }
   int port() const { return port_; }
+  // The metrics endpoint's port; 0 without one.
+  int metrics_port() const;
   // "host:port" (IPv6 hosts in brackets), ready to dial.
   std::string address() const;
 
@@ -63,9 +69,12 @@ class ExciteServer {
   std::unique_ptr<store::SqliteStore> store_;
   std::unique_ptr<SessionRegistry> registry_;
   std::unique_ptr<ExplorationService> service_;
+  std::unique_ptr<Metrics> metrics_;  // outlives server_ (its interceptors)
   std::unique_ptr<grpc::Server> server_;
   absl::Mutex shutdown_mu_;
   bool shut_down_ ABSL_GUARDED_BY(shutdown_mu_) = false;
+  // Last: stops first (its gauges read registry_).
+  std::unique_ptr<MetricsHttpServer> metrics_http_;
 };
 
 // Splits "host:port" / "[v6]:port". INVALID_ARGUMENT if malformed.

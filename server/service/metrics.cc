@@ -1,0 +1,242 @@
+#include "server/service/metrics.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#include <array>
+#include <chrono>
+#include <cstring>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "excite/v1/exploration_service.pb.h"
+#include "server/service/excite_server.h"
+
+namespace excite::service {
+namespace {
+
+// Latency bucket upper bounds in seconds (planning can take tens of seconds).
+constexpr std::array<double, 12> kBounds = {0.001, 0.005, 0.01, 0.025, 0.05, 0.1,
+                                            0.25,  0.5,   1.0,  2.5,   10.0, 30.0};
+
+constexpr absl::string_view kAddDataPath = "/excite.v1.ExplorationService/AddData";
+
+std::string CodeName(grpc::StatusCode code) {
+  static constexpr std::array<const char*, 17> kNames = {"OK",
+                                                         "CANCELLED",
+                                                         "UNKNOWN",
+                                                         "INVALID_ARGUMENT",
+                                                         "DEADLINE_EXCEEDED",
+                                                         "NOT_FOUND",
+                                                         "ALREADY_EXISTS",
+                                                         "PERMISSION_DENIED",
+                                                         "RESOURCE_EXHAUSTED",
+                                                         "FAILED_PRECONDITION",
+                                                         "ABORTED",
+                                                         "OUT_OF_RANGE",
+                                                         "UNIMPLEMENTED",
+                                                         "INTERNAL",
+                                                         "UNAVAILABLE",
+                                                         "DATA_LOSS",
+                                                         "UNAUTHENTICATED"};
+  const int i = static_cast<int>(code);
+  return i >= 0 && i < static_cast<int>(kNames.size()) ? kNames[i] : "UNKNOWN";
+}
+
+class MetricsInterceptor final : public grpc::experimental::Interceptor {
+ public:
+  MetricsInterceptor(Metrics* metrics, const char* method)
+      : metrics_(metrics),
+        method_(method != nullptr ? method : "unknown"),
+        start_(std::chrono::steady_clock::now()) {}
+
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    using grpc::experimental::InterceptionHookPoints;
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_MESSAGE) &&
+        method_ == kAddDataPath) {
+      if (const auto* response =
+              static_cast<const v1::AddDataResponse*>(methods->GetSendMessage())) {
+        metrics_->AddSamplesStored(response->stored());
+      }
+    }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
+      const double seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start_)
+              .count();
+      metrics_->RecordRpc(method_, CodeName(methods->GetSendStatus().error_code()),
+                          seconds);
+    }
+    methods->Proceed();
+  }
+
+ private:
+  Metrics* const metrics_;
+  const std::string method_;
+  const std::chrono::steady_clock::time_point start_;
+};
+
+class MetricsInterceptorFactory final
+    : public grpc::experimental::ServerInterceptorFactoryInterface {
+ public:
+  explicit MetricsInterceptorFactory(Metrics* metrics) : metrics_(metrics) {}
+  grpc::experimental::Interceptor* CreateServerInterceptor(
+      grpc::experimental::ServerRpcInfo* info) override {
+    return new MetricsInterceptor(metrics_, info->method());
+  }
+
+ private:
+  Metrics* const metrics_;
+};
+
+bool SendAll(int fd, const std::string& data) {
+  size_t sent = 0;
+  while (sent < data.size()) {
+    const ssize_t n = send(fd, data.data() + sent, data.size() - sent, MSG_NOSIGNAL);
+    if (n <= 0) return false;
+    sent += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+}  // namespace
+
+void Metrics::RecordRpc(absl::string_view method, absl::string_view code,
+                        double seconds) {
+  absl::MutexLock lock(&mu_);
+  Histogram& h = rpcs_[{std::string(method), std::string(code)}];
+  if (h.buckets.empty()) h.buckets.assign(kBounds.size(), 0);
+  for (size_t i = 0; i < kBounds.size(); ++i) {
+    if (seconds <= kBounds[i]) {
+      ++h.buckets[i];
+      break;
+    }
+  }
+  ++h.count;
+  h.sum += seconds;
+}
+
+void Metrics::AddSamplesStored(int64_t n) { samples_stored_ += n; }
+
+void Metrics::AddGauge(std::string name, std::string help, std::function<double()> read) {
+  absl::MutexLock lock(&mu_);
+  gauges_.push_back({std::move(name), std::move(help), std::move(read)});
+}
+
+std::string Metrics::Render() const {
+  std::string out;
+  absl::MutexLock lock(&mu_);
+  absl::StrAppend(&out, "# HELP excite_rpc_total RPCs finished, by method and code.\n",
+                  "# TYPE excite_rpc_total counter\n");
+  for (const auto& [key, h] : rpcs_) {
+    absl::StrAppend(&out, "excite_rpc_total{method=\"", key.first, "\",code=\"",
+                    key.second, "\"} ", h.count, "\n");
+  }
+  absl::StrAppend(&out,
+                  "# HELP excite_rpc_latency_seconds RPC latency as the server sees "
+                  "it, by method and code.\n",
+                  "# TYPE excite_rpc_latency_seconds histogram\n");
+  for (const auto& [key, h] : rpcs_) {
+    const std::string labels =
+        absl::StrCat("method=\"", key.first, "\",code=\"", key.second, "\"");
+    int64_t cumulative = 0;
+    for (size_t i = 0; i < kBounds.size(); ++i) {
+      cumulative += h.buckets[i];
+      absl::StrAppend(&out, "excite_rpc_latency_seconds_bucket{", labels, ",le=\"",
+                      kBounds[i], "\"} ", cumulative, "\n");
+    }
+    absl::StrAppend(&out, "excite_rpc_latency_seconds_bucket{", labels, ",le=\"+Inf\"} ",
+                    h.count, "\n", "excite_rpc_latency_seconds_sum{", labels, "} ", h.sum,
+                    "\n", "excite_rpc_latency_seconds_count{", labels, "} ", h.count,
+                    "\n");
+  }
+  absl::StrAppend(&out,
+                  "# HELP excite_samples_stored_total Transitions stored by AddData.\n"
+                  "# TYPE excite_samples_stored_total counter\n"
+                  "excite_samples_stored_total ",
+                  samples_stored_.load(), "\n");
+  for (const Gauge& g : gauges_) {
+    absl::StrAppend(&out, "# HELP ", g.name, " ", g.help, "\n# TYPE ", g.name, " gauge\n",
+                    g.name, " ", g.read(), "\n");
+  }
+  return out;
+}
+
+std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>
+MakeMetricsInterceptorFactory(Metrics* metrics) {
+  return std::make_unique<MetricsInterceptorFactory>(metrics);
+}
+
+absl::StatusOr<std::unique_ptr<MetricsHttpServer>> MetricsHttpServer::Start(
+    const std::string& listen, const Metrics* metrics) {
+  std::string host;
+  int port = 0;
+  if (absl::Status s = SplitHostPort(listen, &host, &port); !s.ok()) return s;
+  if (host == "localhost") host = "127.0.0.1";
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  if (inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("metrics address \"", listen, "\": host must be IPv4"));
+  }
+  std::unique_ptr<MetricsHttpServer> server(new MetricsHttpServer());
+  server->metrics_ = metrics;
+  server->fd_ = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (server->fd_ < 0) return absl::UnavailableError("metrics: socket() failed");
+  const int one = 1;
+  setsockopt(server->fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
+  if (bind(server->fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0 ||
+      ::listen(server->fd_, 16) != 0) {
+    return absl::UnavailableError(
+        absl::StrCat("metrics: cannot listen on ", listen, ": ", std::strerror(errno)));
+  }
+  socklen_t len = sizeof(addr);
+  getsockname(server->fd_, reinterpret_cast<sockaddr*>(&addr), &len);
+  server->port_ = ntohs(addr.sin_port);
+  server->thread_ = std::thread([s = server.get()]() { s->Serve(); });
+  return server;
+}
+
+MetricsHttpServer::~MetricsHttpServer() {
+  stop_ = true;
+  if (thread_.joinable()) thread_.join();
+  if (fd_ >= 0) close(fd_);
+}
+
+void MetricsHttpServer::Serve() {
+  while (!stop_) {
+    pollfd p{fd_, POLLIN, 0};
+    if (poll(&p, 1, 200) <= 0) continue;
+    const int client = accept4(fd_, nullptr, nullptr, SOCK_CLOEXEC);
+    if (client < 0) continue;
+    timeval timeout{2, 0};
+    setsockopt(client, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof(timeout));
+    setsockopt(client, SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof(timeout));
+    std::string request;
+    char buffer[1024];
+    while (request.size() < 8192 && request.find("\r\n\r\n") == std::string::npos) {
+      const ssize_t n = recv(client, buffer, sizeof(buffer), 0);
+      if (n <= 0) break;
+      request.append(buffer, static_cast<size_t>(n));
+    }
+    std::string body;
+    std::string status = "404 Not Found";
+    if (absl::StartsWith(request, "GET /metrics ") ||
+        absl::StartsWith(request, "GET /metrics?")) {
+      status = "200 OK";
+      body = metrics_->Render();
+    }
+    SendAll(client,
+            absl::StrCat("HTTP/1.0 ", status,
+                         "\r\nContent-Type: text/plain; version=0.0.4; charset=utf-8\r\n"
+                         "Content-Length: ",
+                         body.size(), "\r\nConnection: close\r\n\r\n", body));
+    close(client);
+  }
+}
+
+}  // namespace excite::service

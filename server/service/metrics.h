@@ -1,0 +1,93 @@
+#ifndef EXCITE_SERVER_SERVICE_METRICS_H_
+#define EXCITE_SERVER_SERVICE_METRICS_H_
+
+#include <atomic>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "absl/synchronization/mutex.h"
+#include "grpcpp/support/server_interceptor.h"
+
+namespace excite::service {
+
+// Process metrics in the Prometheus text exposition format (version 0.0.4):
+//   excite_rpc_total{method,code}                 counter
+//   excite_rpc_latency_seconds{method,code}       histogram
+//   excite_samples_stored_total                   counter (AddData's `stored`)
+//   gauges registered with AddGauge (sessions, samples).
+// Thread-safe.
+class Metrics {
+ public:
+  Metrics() = default;
+  Metrics(const Metrics&) = delete;
+  Metrics& operator=(const Metrics&) = delete;
+
+  // One finished RPC; `method` is the full path ("/pkg.Service/Method").
+  void RecordRpc(absl::string_view method, absl::string_view code, double seconds);
+  void AddSamplesStored(int64_t n);
+  // A gauge read at every scrape; `read` must stay callable while this lives.
+  void AddGauge(std::string name, std::string help, std::function<double()> read);
+
+  std::string Render() const;
+
+ private:
+  struct Histogram {
+    std::vector<int64_t> buckets;  // cumulative at render time, per bound here
+    int64_t count = 0;
+    double sum = 0;
+  };
+  struct Gauge {
+    std::string name;
+    std::string help;
+    std::function<double()> read;
+  };
+
+  mutable absl::Mutex mu_;
+  // (method, code) -> latency histogram (its count is the RPC count).
+  std::map<std::pair<std::string, std::string>, Histogram> rpcs_ ABSL_GUARDED_BY(mu_);
+  std::vector<Gauge> gauges_ ABSL_GUARDED_BY(mu_);
+  std::atomic<int64_t> samples_stored_{0};
+};
+
+// Records every RPC of the server (method, status code, latency, samples stored
+// by AddData) into `metrics`, which must outlive the server. Calls rejected by
+// the bearer-token check never reach interceptors and are not counted.
+std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>
+MakeMetricsInterceptorFactory(Metrics* metrics);
+
+// A tiny single-threaded HTTP/1.0 responder: GET /metrics answers
+// metrics->Render(), anything else 404. One connection at a time, 2 s I/O
+// timeouts. Stops (and joins its thread) on destruction.
+class MetricsHttpServer {
+ public:
+  // `listen` is HOST:PORT (port 0: any free port); IPv4 hosts or "localhost".
+  static absl::StatusOr<std::unique_ptr<MetricsHttpServer>> Start(
+      const std::string& listen, const Metrics* metrics);
+  ~MetricsHttpServer();
+  MetricsHttpServer(const MetricsHttpServer&) = delete;
+  MetricsHttpServer& operator=(const MetricsHttpServer&) = delete;
+
+  int port() const { return port_; }
+
+ private:
+  MetricsHttpServer() = default;
+  void Serve();
+
+  const Metrics* metrics_ = nullptr;
+  int fd_ = -1;
+  int port_ = 0;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_METRICS_H_

@@ -1,0 +1,104 @@
+// The Prometheus endpoint of excite-server: scraped over loopback after a few
+// RPCs, its counters match what was called.
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <memory>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "client/excite_client.h"
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+#include "server/service/config_text.h"
+#include "server/service/excite_server.h"
+#include "tests/service/pendulum_data.h"
+#include "tests/service/temp_dir.h"
+
+namespace excite::service {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::Not;
+using ::testing::StartsWith;
+
+// One HTTP/1.0 GET on 127.0.0.1:port; the whole reply ("" on error).
+std::string HttpGet(int port, const std::string& path) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return "";
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  std::string reply;
+  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0) {
+    const std::string request = absl::StrCat("GET ", path, " HTTP/1.0\r\n\r\n");
+    if (send(fd, request.data(), request.size(), 0) ==
+        static_cast<ssize_t>(request.size())) {
+      char buffer[4096];
+      ssize_t n = 0;
+      while ((n = recv(fd, buffer, sizeof(buffer), 0)) > 0) {
+        reply.append(buffer, static_cast<size_t>(n));
+      }
+    }
+  }
+  close(fd);
+  return reply;
+}
+
+TEST(MetricsTest, CountsRpcsSessionsAndSamples) {
+  excite::testing::TempDir tmp;
+  ServerOptions options;
+  options.listen = "127.0.0.1:0";
+  options.data_dir = tmp.path() + "/data";
+  options.metrics_listen = "127.0.0.1:0";
+  absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
+  ASSERT_TRUE(server.ok()) << server.status();
+  const int port = (*server)->metrics_port();
+  ASSERT_GT(port, 0);
+
+  std::unique_ptr<client::ExciteClient> client =
+      client::ExciteClient::Connect((*server)->address());
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(client->ListSessions(0, "").ok());
+  EXPECT_EQ(client->GetSession("sessions/nope").status().code(),
+            absl::StatusCode::kNotFound);
+  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(R"pb(
+    state_dim: 2
+    input_dim: 1
+    input_bounds { lower: -3 upper: 3 }
+    noise { variance: 1e-6 fit: true }
+    kernel { fit: true restarts: 1 max_iterations: 20 }
+    strategy: STRATEGY_RANDOM
+    horizon: 5
+  )pb");
+  ASSERT_TRUE(config.ok()) << config.status();
+  absl::StatusOr<v1::Session> session = client->CreateSession(*config, "m1");
+  ASSERT_TRUE(session.ok()) << session.status();
+  ASSERT_TRUE(
+      client->AddData(session->name(), {excite::testing::PendulumTransitions(7, 0, 1)})
+          .ok());
+
+  const std::string reply = HttpGet(port, "/metrics");
+  EXPECT_THAT(reply, StartsWith("HTTP/1.0 200 OK\r\n"));
+  const std::string p = "/excite.v1.ExplorationService/";
+  EXPECT_THAT(reply, HasSubstr(absl::StrCat("excite_rpc_total{method=\"", p,
+                                            "ListSessions\",code=\"OK\"} 3\n")));
+  EXPECT_THAT(reply, HasSubstr(absl::StrCat("excite_rpc_total{method=\"", p,
+                                            "GetSession\",code=\"NOT_FOUND\"} 1\n")));
+  EXPECT_THAT(reply, HasSubstr(absl::StrCat("excite_rpc_latency_seconds_count{method=\"",
+                                            p, "ListSessions\",code=\"OK\"} 3\n")));
+  EXPECT_THAT(reply,
+              HasSubstr(absl::StrCat("excite_rpc_latency_seconds_bucket{method=\"", p,
+                                     "ListSessions\",code=\"OK\",le=\"+Inf\"} 3\n")));
+  EXPECT_THAT(reply, HasSubstr("excite_samples_stored_total 7\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_samples 7\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_sessions 1\n"));
+  EXPECT_THAT(HttpGet(port, "/other"), StartsWith("HTTP/1.0 404"));
+  EXPECT_THAT(reply, Not(HasSubstr("UNKNOWN")));
+}
+
+}  // namespace
+}  // namespace excite::service
