@@ -24,6 +24,35 @@ constexpr std::array<double, 12> kBounds = {0.001, 0.005, 0.01, 0.025, 0.05, 0.1
                                             0.25,  0.5,   1.0,  2.5,   10.0, 30.0};
 
 constexpr absl::string_view kAddDataPath = "/excite.v1.ExplorationService/AddData";
+constexpr absl::string_view kPlanPath = "/excite.v1.ExplorationService/PlanInputs";
+
+void Observe(std::vector<int64_t>* buckets, int64_t* count, double* sum, double seconds) {
+  if (buckets->empty()) buckets->assign(kBounds.size(), 0);
+  for (size_t i = 0; i < kBounds.size(); ++i) {
+    if (seconds <= kBounds[i]) {
+      ++(*buckets)[i];
+      break;
+    }
+  }
+  ++*count;
+  *sum += seconds;
+}
+
+// Prometheus lines of one histogram; `labels` is "" or "k=\"v\",...".
+void AppendHistogram(std::string* out, absl::string_view name, absl::string_view labels,
+                     const std::vector<int64_t>& buckets, int64_t count, double sum) {
+  const std::string sep = labels.empty() ? "" : ",";
+  int64_t cumulative = 0;
+  for (size_t i = 0; i < kBounds.size(); ++i) {
+    cumulative += buckets.empty() ? 0 : buckets[i];
+    absl::StrAppend(out, name, "_bucket{", labels, sep, "le=\"", kBounds[i], "\"} ",
+                    cumulative, "\n");
+  }
+  const std::string braces = labels.empty() ? "" : absl::StrCat("{", labels, "}");
+  absl::StrAppend(out, name, "_bucket{", labels, sep, "le=\"+Inf\"} ", count, "\n", name,
+                  "_sum", braces, " ", sum, "\n", name, "_count", braces, " ", count,
+                  "\n");
+}
 
 std::string CodeName(grpc::StatusCode code) {
   static constexpr std::array<const char*, 17> kNames = {"OK",
@@ -61,6 +90,13 @@ class MetricsInterceptor final : public grpc::experimental::Interceptor {
       if (const auto* response =
               static_cast<const v1::AddDataResponse*>(methods->GetSendMessage())) {
         metrics_->AddSamplesStored(response->stored());
+      }
+    }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_MESSAGE) &&
+        method_ == kPlanPath) {
+      if (const auto* response =
+              static_cast<const v1::PlanInputsResponse*>(methods->GetSendMessage())) {
+        metrics_->RecordPlan(response->wall_time_ms() / 1000.0);
       }
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
@@ -108,15 +144,12 @@ void Metrics::RecordRpc(absl::string_view method, absl::string_view code,
                         double seconds) {
   absl::MutexLock lock(&mu_);
   Histogram& h = rpcs_[{std::string(method), std::string(code)}];
-  if (h.buckets.empty()) h.buckets.assign(kBounds.size(), 0);
-  for (size_t i = 0; i < kBounds.size(); ++i) {
-    if (seconds <= kBounds[i]) {
-      ++h.buckets[i];
-      break;
-    }
-  }
-  ++h.count;
-  h.sum += seconds;
+  Observe(&h.buckets, &h.count, &h.sum, seconds);
+}
+
+void Metrics::RecordPlan(double seconds) {
+  absl::MutexLock lock(&mu_);
+  Observe(&plan_.buckets, &plan_.count, &plan_.sum, seconds);
 }
 
 void Metrics::AddSamplesStored(int64_t n) { samples_stored_ += n; }
@@ -140,19 +173,14 @@ std::string Metrics::Render() const {
                   "it, by method and code.\n",
                   "# TYPE excite_rpc_latency_seconds histogram\n");
   for (const auto& [key, h] : rpcs_) {
-    const std::string labels =
-        absl::StrCat("method=\"", key.first, "\",code=\"", key.second, "\"");
-    int64_t cumulative = 0;
-    for (size_t i = 0; i < kBounds.size(); ++i) {
-      cumulative += h.buckets[i];
-      absl::StrAppend(&out, "excite_rpc_latency_seconds_bucket{", labels, ",le=\"",
-                      kBounds[i], "\"} ", cumulative, "\n");
-    }
-    absl::StrAppend(&out, "excite_rpc_latency_seconds_bucket{", labels, ",le=\"+Inf\"} ",
-                    h.count, "\n", "excite_rpc_latency_seconds_sum{", labels, "} ", h.sum,
-                    "\n", "excite_rpc_latency_seconds_count{", labels, "} ", h.count,
-                    "\n");
+    AppendHistogram(&out, "excite_rpc_latency_seconds",
+                    absl::StrCat("method=\"", key.first, "\",code=\"", key.second, "\""),
+                    h.buckets, h.count, h.sum);
   }
+  absl::StrAppend(&out,
+                  "# HELP excite_plan_seconds Solver wall time of successful "
+                  "PlanInputs calls.\n# TYPE excite_plan_seconds histogram\n");
+  AppendHistogram(&out, "excite_plan_seconds", "", plan_.buckets, plan_.count, plan_.sum);
   absl::StrAppend(&out,
                   "# HELP excite_samples_stored_total Transitions stored by AddData.\n"
                   "# TYPE excite_samples_stored_total counter\n"

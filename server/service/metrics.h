@@ -22,6 +22,8 @@ namespace excite::service {
 //   excite_rpc_total{method,code}                 counter
 //   excite_rpc_latency_seconds{method,code}       histogram
 //   excite_samples_stored_total                   counter (AddData's `stored`)
+//   excite_plan_seconds                           histogram (PlanInputs' solver
+//                                                 wall time, wall_time_ms)
 //   gauges registered with AddGauge (sessions, samples).
 // Thread-safe.
 class Metrics {
@@ -33,6 +35,8 @@ class Metrics {
   // One finished RPC; `method` is the full path ("/pkg.Service/Method").
   void RecordRpc(absl::string_view method, absl::string_view code, double seconds);
   void AddSamplesStored(int64_t n);
+  // One successful plan's solver wall time.
+  void RecordPlan(double seconds);
   // A gauge read at every scrape; `read` must stay callable while this lives.
   void AddGauge(std::string name, std::string help, std::function<double()> read);
 
@@ -54,6 +58,7 @@ class Metrics {
   // (method, code) -> latency histogram (its count is the RPC count).
   std::map<std::pair<std::string, std::string>, Histogram> rpcs_ ABSL_GUARDED_BY(mu_);
   std::vector<Gauge> gauges_ ABSL_GUARDED_BY(mu_);
+  Histogram plan_ ABSL_GUARDED_BY(mu_);
   std::atomic<int64_t> samples_stored_{0};
 };
 

@@ -80,6 +80,7 @@ TEST(MetricsTest, CountsRpcsSessionsAndSamples) {
   ASSERT_TRUE(
       client->AddData(session->name(), {excite::testing::PendulumTransitions(7, 0, 1)})
           .ok());
+  ASSERT_TRUE(client->PlanInputs(session->name(), {0.1, 0.0}).ok());
 
   const std::string reply = HttpGet(port, "/metrics");
   EXPECT_THAT(reply, StartsWith("HTTP/1.0 200 OK\r\n"));
@@ -96,6 +97,8 @@ TEST(MetricsTest, CountsRpcsSessionsAndSamples) {
   EXPECT_THAT(reply, HasSubstr("excite_samples_stored_total 7\n"));
   EXPECT_THAT(reply, HasSubstr("excite_samples 7\n"));
   EXPECT_THAT(reply, HasSubstr("excite_sessions 1\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_count 1\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_bucket{le=\"+Inf\"} 1\n"));
   EXPECT_THAT(HttpGet(port, "/other"), StartsWith("HTTP/1.0 404"));
   EXPECT_THAT(reply, Not(HasSubstr("UNKNOWN")));
 }
