@@ -76,7 +76,11 @@ TEST(KillRestartTest, AcknowledgedSamplesSurviveSigkillExactlyOnce) {
       # fit of that size is seconds of CPU this durability test does not need.
       kernel {
         fit: false
-        fixed { signal_variance: 1 lengthscales: [ 2, 2 ] noise_variance: 0.0001 }
+        fixed {
+          signal_variance: 1
+          lengthscales: [ 2, 2 ]
+          noise_variance: 0.0001
+        }
       }
     )pb");
     ASSERT_TRUE(config.ok()) << config.status();
