@@ -23,6 +23,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
+#include "absl/status/status.h"
 #include "google/protobuf/io/coded_stream.h"
 #include "google/protobuf/io/zero_copy_stream_impl_lite.h"
 #include "google/protobuf/wire_format_lite.h"
@@ -59,28 +60,6 @@ const char* StatusName(uint32_t status) {
     default:
       return "UNRECOGNISED_STATUS";
   }
-}
-
-const char* CodeName(grpc::StatusCode code) {
-  static constexpr const char* kNames[] = {"OK",
-                                           "CANCELLED",
-                                           "UNKNOWN",
-                                           "INVALID_ARGUMENT",
-                                           "DEADLINE_EXCEEDED",
-                                           "NOT_FOUND",
-                                           "ALREADY_EXISTS",
-                                           "PERMISSION_DENIED",
-                                           "RESOURCE_EXHAUSTED",
-                                           "FAILED_PRECONDITION",
-                                           "ABORTED",
-                                           "OUT_OF_RANGE",
-                                           "UNIMPLEMENTED",
-                                           "INTERNAL",
-                                           "UNAVAILABLE",
-                                           "DATA_LOSS",
-                                           "UNAUTHENTICATED"};
-  const int index = static_cast<int>(code);
-  return index >= 0 && index < 17 ? kNames[index] : "UNKNOWN_CODE";
 }
 
 // HealthCheckRequest { string service = 1; } in wire format.
@@ -135,8 +114,9 @@ bool CheckOnce(grpc::GenericStub& stub, const std::string& request_bytes,
                  [&done](grpc::Status status) { done.set_value(std::move(status)); });
   const grpc::Status status = done.get_future().get();
   if (!status.ok()) {
-    *line = std::string("error: ") + CodeName(status.error_code()) + ": " +
-            status.error_message();
+    *line = std::string("error: ") +
+            absl::StatusCodeToString(static_cast<absl::StatusCode>(status.error_code())) +
+            ": " + status.error_message();
     return false;
   }
   uint32_t serving = 0;

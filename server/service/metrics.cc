@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cstring>
 
+#include "absl/status/status.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "excite/v1/exploration_service.pb.h"
@@ -54,28 +55,6 @@ void AppendHistogram(std::string* out, absl::string_view name, absl::string_view
                   "\n");
 }
 
-std::string CodeName(grpc::StatusCode code) {
-  static constexpr std::array<const char*, 17> kNames = {"OK",
-                                                         "CANCELLED",
-                                                         "UNKNOWN",
-                                                         "INVALID_ARGUMENT",
-                                                         "DEADLINE_EXCEEDED",
-                                                         "NOT_FOUND",
-                                                         "ALREADY_EXISTS",
-                                                         "PERMISSION_DENIED",
-                                                         "RESOURCE_EXHAUSTED",
-                                                         "FAILED_PRECONDITION",
-                                                         "ABORTED",
-                                                         "OUT_OF_RANGE",
-                                                         "UNIMPLEMENTED",
-                                                         "INTERNAL",
-                                                         "UNAVAILABLE",
-                                                         "DATA_LOSS",
-                                                         "UNAUTHENTICATED"};
-  const int i = static_cast<int>(code);
-  return i >= 0 && i < static_cast<int>(kNames.size()) ? kNames[i] : "UNKNOWN";
-}
-
 class MetricsInterceptor final : public grpc::experimental::Interceptor {
  public:
   MetricsInterceptor(Metrics* metrics, const char* method)
@@ -103,7 +82,9 @@ class MetricsInterceptor final : public grpc::experimental::Interceptor {
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start_)
               .count();
-      metrics_->RecordRpc(method_, CodeName(methods->GetSendStatus().error_code()),
+      metrics_->RecordRpc(method_,
+                          absl::StatusCodeToString(static_cast<absl::StatusCode>(
+                              methods->GetSendStatus().error_code())),
                           seconds);
     }
     methods->Proceed();
