@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """Reproduces the paper's Table and Figure (Section 6) with real processes.
 
-One excite-server for the whole run (free loopback port, temporary data directory);
-every trial is one excite-sim process talking to it over gRPC, --jobs of them at a
-time. Seeds are the trial index (+ --seed_offset); the evaluation set is the
+One excite-server per parallel job (--servers, default --jobs; free loopback ports,
+temporary data directories): a server serialises its Ipopt solves, so one server per
+job lets two planning trials use both cores. Every trial is one excite-sim process
+talking to the least busy server over gRPC, --jobs of them at a time. Seeds are the trial index (+ --seed_offset); the evaluation set is the
 system config's, the same for every trial and strategy.
 
   bench/paper/run.py                   full mode (trial counts: benchmark.json)
@@ -14,7 +15,7 @@ system config's, the same for every trial and strategy.
 
 Systems without a config and strategies excite-sim does not know are reported and
 skipped. Outputs (default results/paper/<timestamp>/): results.csv, trials.csv,
-table.md, summary.json, rmse_<system>.png, rmse_all.png, coverage.png, server.log and
+table.md, summary.json, rmse_<system>.png, rmse_all.png, coverage.png, server*.log and
 trials/<system>/<strategy>/trial<k>.{json,log}. Standard library + matplotlib only;
 run it with Debian's /usr/bin/python3.
 """
@@ -254,11 +255,13 @@ def make_plan(cfg, args, mode, out_dir):
 
 
 class Server:
-    def __init__(self, binary, out_dir, keep_data):
+    def __init__(self, binary, out_dir, keep_data, index=0):
         self.data_dir = tempfile.mkdtemp(prefix="excite-bench-")
         self.keep_data = keep_data
-        self.log_path = os.path.join(out_dir, "server.log")
-        self.stdout_path = os.path.join(out_dir, "server.stdout")
+        self.running = 0  # trials currently talking to this server
+        suffix = f"-{index}" if index else ""
+        self.log_path = os.path.join(out_dir, f"server{suffix}.log")
+        self.stdout_path = os.path.join(out_dir, f"server{suffix}.stdout")
         self.stdout = open(self.stdout_path, "wb")
         self.stderr = open(self.log_path, "wb")
         self.proc = subprocess.Popen(
@@ -398,7 +401,7 @@ class Estimator:
         return None
 
 
-def run_trials(trials, args, server, samples_of):
+def run_trials(trials, args, servers, samples_of):
     jobs = max(1, args.jobs)
     queue = list(trials)
     running = []
@@ -445,15 +448,18 @@ def run_trials(trials, args, server, samples_of):
 
     try:
         while queue or running:
-            if not server.alive():
-                raise RuntimeError(f"excite-server exited with {server.proc.returncode}; "
-                                   f"see {server.log_path}")
+            for server in servers:
+                if not server.alive():
+                    raise RuntimeError(f"excite-server exited with "
+                                       f"{server.proc.returncode}; see {server.log_path}")
             while len(running) < jobs and queue:
                 t = queue.pop(0)
                 if t.pair in broken:
                     t.status, t.error = "skipped", broken[t.pair]
                     continue
-                start_trial(t, args.sim_bin, server.address)
+                t.server = min(servers, key=lambda s: s.running)
+                t.server.running += 1
+                start_trial(t, args.sim_bin, t.server.address)
                 running.append(t)
             for r in list(running):
                 if r.proc.poll() is None:
@@ -467,6 +473,7 @@ def run_trials(trials, args, server, samples_of):
                 else:
                     finish_trial(r)
                 running.remove(r)
+                r.server.running -= 1
                 if r.status == "ok":
                     done += 1
                     succeeded_pairs.add(r.pair)
@@ -584,7 +591,7 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
         f"- Mode: {mode_text}{meta.get('overrides', '')}; samples per trial: "
         f"{samples}.",
         f"- Run: {meta['started']}, {fmt_duration(meta.get('wall_s'))} wall, "
-        f"--jobs {meta['jobs']}, commit {meta['commit']}.",
+        f"--jobs {meta['jobs']}, {meta.get('servers', 1)} server(s), commit {meta['commit']}.",
         f"- Machine: {meta['machine']}.",
         f"- Command: `{meta['command']}`",
         "- Cells: mean ± sample std over the successful trials (seeds = trial index); "
@@ -687,7 +694,8 @@ def prepare_out_dir(out_dir):
                      "choose another --out")
         for name in os.listdir(out_dir):
             path = os.path.join(out_dir, name)
-            if name in OUTPUT_FILES or re.fullmatch(r"rmse_\w+\.png", name):
+            if name in OUTPUT_FILES or re.fullmatch(
+                    r"rmse_\w+\.png|server-\d+\.(log|stdout)", name):
                 os.remove(path)
             elif name == "trials" and os.path.isdir(path):
                 shutil.rmtree(path)
@@ -710,6 +718,10 @@ def parse_args(argv):
     p.add_argument("--trials", type=int, default=0, help="trials per pair (overrides)")
     p.add_argument("--samples", type=int, default=0, help="samples per trial (overrides)")
     p.add_argument("--jobs", type=int, default=2, help="excite-sim processes at once")
+    p.add_argument("--servers", type=int, default=0,
+                   help="excite-server processes (default: --jobs); each server "
+                   "serialises its Ipopt solves, so one per job lets planning "
+                   "trials run in parallel")
     p.add_argument("--out", help="results directory (default results/paper/<timestamp>)")
     p.add_argument("--config", default=DEFAULT_CONFIG, help="benchmark settings (JSON)")
     p.add_argument("--server_bin", "--server-bin", dest="server_bin",
@@ -765,6 +777,7 @@ def main(argv):
     meta = {
         "mode": mode, "started": datetime.datetime.now().isoformat(timespec="seconds"),
         "command": " ".join(["bench/paper/run.py"] + argv), "jobs": args.jobs,
+        "servers": max(1, args.servers or args.jobs),
         "machine": machine_description(), "commit": git_commit(),
         "systems": systems, "strategies": strategies,
         "planned": {f"{k[0]}/{k[1]}": v for k, v in planned.items()},
@@ -775,14 +788,17 @@ def main(argv):
             if value),
     }
     t0 = time.monotonic()
-    server = Server(args.server_bin, out_dir, args.keep_data)
+    n_servers = max(1, args.servers or args.jobs)
+    servers = [Server(args.server_bin, out_dir, args.keep_data, i)
+               for i in range(n_servers)]
     interrupted = False
     server_error = None
     try:
-        address = server.wait_ready()
-        log(f"excite-server listening on {address} (pid {server.proc.pid}), "
-            f"data in {server.data_dir}")
-        interrupted = run_trials(trials, args, server, samples_of)
+        for server in servers:
+            address = server.wait_ready()
+            log(f"excite-server listening on {address} (pid {server.proc.pid}), "
+                f"data in {server.data_dir}")
+        interrupted = run_trials(trials, args, servers, samples_of)
     except RuntimeError as e:
         server_error = str(e)
         log(f"run.py: {e}")
@@ -797,9 +813,9 @@ def main(argv):
             if t.status in ("queued", "running"):
                 t.status, t.error = "skipped", "server failed"
     finally:
-        code = server.stop()
-    if code != 0 and not server_error:
-        server_error = f"excite-server exit code {code} on SIGTERM"
+        codes = [server.stop() for server in servers]
+    if any(codes) and not server_error:
+        server_error = f"excite-server exit codes {codes} on SIGTERM"
         log(f"run.py: {server_error}")
     meta["wall_s"] = time.monotonic() - t0
 
