@@ -14,6 +14,8 @@ PACKAGES=(
   # Python client and its tests (Debian's /usr/bin/python3; nothing from PyPI)
   python3-grpcio python3-protobuf python3-numpy python3-pytest python3-yaml
   python3-matplotlib  # bench/paper: the paper-table runner's plots
+  openssl                    # TLS tests make their certificates at test time
+  clang libclang-rt-14-dev   # tests/fuzz: libFuzzer target (config_fuzz_30s)
   # container smoke test (tests/container): podman with runc, a local base image, compose
   podman runc netavark aardvark-dns debootstrap podman-compose
 )

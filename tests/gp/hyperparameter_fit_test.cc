@@ -49,6 +49,15 @@ Hyperparameters Truth() {
   return h;
 }
 
+// A warm start far from Truth() (and from the data-driven default start).
+Hyperparameters FarFromTruth() {
+  Hyperparameters h;
+  h.signal_variance = 5.0;
+  h.lengthscales = Eigen::Vector2d(3.0, 0.1);
+  h.noise_variance = 0.3;
+  return h;
+}
+
 TEST(HyperparameterFitTest, RecoversKnownGp) {
   Eigen::MatrixXd x;
   Eigen::VectorXd y;
@@ -85,10 +94,7 @@ TEST(HyperparameterFitTest, FittedLmlIsAtLeastThatOfEveryStart) {
   Eigen::MatrixXd x;
   Eigen::VectorXd y;
   SampleFromGp(Truth(), 80, 2, &x, &y);
-  Hyperparameters warm;
-  warm.signal_variance = 5.0;
-  warm.lengthscales = Eigen::Vector2d(3.0, 0.1);
-  warm.noise_variance = 0.3;
+  const Hyperparameters warm = FarFromTruth();
   Hyperparameters def;
   def.signal_variance = 1.0;
   def.lengthscales = Eigen::Vector2d(1.0, 1.0);
@@ -149,10 +155,7 @@ TEST(HyperparameterFitTest, StopEndsTheFitWithTheBestPointSoFar) {
   Eigen::MatrixXd x;
   Eigen::VectorXd y;
   SampleFromGp(Truth(), 80, 6, &x, &y);
-  Hyperparameters warm;
-  warm.signal_variance = 5.0;
-  warm.lengthscales = Eigen::Vector2d(3.0, 0.1);
-  warm.noise_variance = 0.3;
+  const Hyperparameters warm = FarFromTruth();
   const double lml_warm = testing::ReferenceGp(x, y, warm).LogMarginalLikelihood();
   FitOptions options;
   options.warm_restarts = 2;

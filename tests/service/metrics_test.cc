@@ -49,44 +49,67 @@ std::string HttpGet(int port, const std::string& path) {
   return reply;
 }
 
-TEST(MetricsTest, CountsRpcsSessionsAndSamples) {
-  excite::testing::TempDir tmp;
-  ServerOptions options;
-  options.listen = "127.0.0.1:0";
-  options.data_dir = tmp.path() + "/data";
-  options.metrics_listen = "127.0.0.1:0";
-  absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
-  ASSERT_TRUE(server.ok()) << server.status();
-  const int port = (*server)->metrics_port();
-  ASSERT_GT(port, 0);
+// A server with a metrics endpoint on free loopback ports, and a client.
+class MetricsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ServerOptions options;
+    options.listen = "127.0.0.1:0";
+    options.data_dir = tmp_.path() + "/data";
+    options.metrics_listen = "127.0.0.1:0";
+    absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
+    ASSERT_TRUE(server.ok()) << server.status();
+    server_ = *std::move(server);
+    port_ = server_->metrics_port();
+    ASSERT_GT(port_, 0);
+    client_ = client::ExciteClient::Connect(server_->address());
+  }
 
-  std::unique_ptr<client::ExciteClient> client =
-      client::ExciteClient::Connect((*server)->address());
+  // A pendulum session (state_dim 2, input_dim 1, strategy random) with the given
+  // noise and kernel settings (textproto) holding `samples` transitions.
+  absl::StatusOr<v1::Session> PendulumSession(const std::string& id,
+                                              const std::string& noise_and_kernel,
+                                              int samples) {
+    absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(
+        absl::StrCat("state_dim: 2 input_dim: 1 input_bounds { lower: -3 upper: 3 } ",
+                     noise_and_kernel, " strategy: STRATEGY_RANDOM horizon: 5"));
+    if (!config.ok()) return config.status();
+    absl::StatusOr<v1::Session> session = client_->CreateSession(*config, id);
+    if (!session.ok()) return session.status();
+    absl::StatusOr<v1::AddDataResponse> added = client_->AddData(
+        session->name(), {excite::testing::PendulumTransitions(samples, 0, 3)});
+    if (!added.ok()) return added.status();
+    return session;
+  }
+
+  static v1::PredictRequest PredictOnePoint(const std::string& session) {
+    v1::PredictRequest predict;
+    predict.set_session(session);
+    for (double v : {0.1, 0.2, 0.3}) predict.add_inputs(v);
+    return predict;
+  }
+
+  excite::testing::TempDir tmp_;
+  std::unique_ptr<ExciteServer> server_;
+  int port_ = 0;
+  std::unique_ptr<client::ExciteClient> client_;
+};
+
+TEST_F(MetricsTest, CountsRpcsSessionsAndSamples) {
+  client::ExciteClient* client = client_.get();
   for (int i = 0; i < 3; ++i) ASSERT_TRUE(client->ListSessions(0, "").ok());
   EXPECT_EQ(client->GetSession("sessions/nope").status().code(),
             absl::StatusCode::kNotFound);
-  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(R"pb(
-    state_dim: 2
-    input_dim: 1
-    input_bounds { lower: -3 upper: 3 }
-    noise { variance: 1e-6 fit: true }
-    kernel { fit: true restarts: 1 max_iterations: 20 }
-    strategy: STRATEGY_RANDOM
-    horizon: 5
-  )pb");
-  ASSERT_TRUE(config.ok()) << config.status();
-  absl::StatusOr<v1::Session> session = client->CreateSession(*config, "m1");
+  absl::StatusOr<v1::Session> session =
+      PendulumSession("m1",
+                      "noise { variance: 1e-6 fit: true } kernel { fit: true restarts: 1 "
+                      "max_iterations: 20 }",
+                      7);
   ASSERT_TRUE(session.ok()) << session.status();
-  ASSERT_TRUE(
-      client->AddData(session->name(), {excite::testing::PendulumTransitions(7, 0, 1)})
-          .ok());
   ASSERT_TRUE(client->PlanInputs(session->name(), {0.1, 0.0}).ok());
-  v1::PredictRequest predict;
-  predict.set_session(session->name());
-  for (double v : {0.1, 0.2, 0.3}) predict.add_inputs(v);
-  ASSERT_TRUE(client->Predict(predict).ok());  // the first (and only) refit
+  ASSERT_TRUE(client->Predict(PredictOnePoint(session->name())).ok());  // the refit
 
-  const std::string reply = HttpGet(port, "/metrics");
+  const std::string reply = HttpGet(port_, "/metrics");
   EXPECT_THAT(reply, StartsWith("HTTP/1.0 200 OK\r\n"));
   const std::string p = "/excite.v1.ExplorationService/";
   EXPECT_THAT(reply, HasSubstr(absl::StrCat("excite_rpc_total{method=\"", p,
@@ -109,7 +132,7 @@ TEST(MetricsTest, CountsRpcsSessionsAndSamples) {
               HasSubstr("excite_store_write_seconds_count{op=\"insert_samples\"} 1\n"));
   EXPECT_THAT(reply,
               HasSubstr("excite_store_write_seconds_count{op=\"save_model\"} 1\n"));
-  EXPECT_THAT(HttpGet(port, "/other"), StartsWith("HTTP/1.0 404"));
+  EXPECT_THAT(HttpGet(port_, "/other"), StartsWith("HTTP/1.0 404"));
   EXPECT_THAT(reply, Not(HasSubstr("UNKNOWN")));
 }
 
@@ -117,56 +140,35 @@ TEST(MetricsTest, CountsRpcsSessionsAndSamples) {
 // (counted in excite_fits_stopped_total) instead of finishing it for a client that
 // has gone, keeps the best hyperparameters so far, and the next call completes
 // the fit.
-TEST(MetricsTest, RefitStopsAtTheClientDeadlineAndResumes) {
-  excite::testing::TempDir tmp;
-  ServerOptions options;
-  options.listen = "127.0.0.1:0";
-  options.data_dir = tmp.path() + "/data";
-  options.metrics_listen = "127.0.0.1:0";
-  absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
-  ASSERT_TRUE(server.ok()) << server.status();
-  const int port = (*server)->metrics_port();
-  std::unique_ptr<client::ExciteClient> client =
-      client::ExciteClient::Connect((*server)->address());
+TEST_F(MetricsTest, RefitStopsAtTheClientDeadlineAndResumes) {
   // 600 samples and 8 starts per output: a complete cold fit takes seconds here.
-  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(R"pb(
-    state_dim: 2
-    input_dim: 1
-    input_bounds { lower: -3 upper: 3 }
-    noise { variance: 1e-4 fit: true }
-    kernel { fit: true restarts: 7 max_iterations: 40 }
-    strategy: STRATEGY_RANDOM
-    horizon: 5
-  )pb");
-  ASSERT_TRUE(config.ok()) << config.status();
-  absl::StatusOr<v1::Session> session = client->CreateSession(*config, "slow");
+  absl::StatusOr<v1::Session> session =
+      PendulumSession("slow",
+                      "noise { variance: 1e-4 fit: true } kernel { fit: true restarts: 7 "
+                      "max_iterations: 40 }",
+                      600);
   ASSERT_TRUE(session.ok()) << session.status();
-  ASSERT_TRUE(
-      client->AddData(session->name(), {excite::testing::PendulumTransitions(600, 0, 3)})
-          .ok());
-  v1::PredictRequest predict;
-  predict.set_session(session->name());
-  for (double v : {0.1, 0.2, 0.3}) predict.add_inputs(v);
+  const v1::PredictRequest predict = PredictOnePoint(session->name());
 
   client::ClientOptions hurried;
   hurried.default_deadline = std::chrono::milliseconds(100);
   std::unique_ptr<client::ExciteClient> impatient =
-      client::ExciteClient::Connect((*server)->address(), hurried);
+      client::ExciteClient::Connect(server_->address(), hurried);
   EXPECT_EQ(impatient->Predict(predict).status().code(),
             absl::StatusCode::kDeadlineExceeded);
   // The server notices at its next objective evaluation and records the stop.
   std::string reply;
   for (int i = 0; i < 200; ++i) {
-    reply = HttpGet(port, "/metrics");
+    reply = HttpGet(port_, "/metrics");
     if (reply.find("excite_fit_seconds_count 1\n") != std::string::npos) break;
     usleep(50 * 1000);
   }
   EXPECT_THAT(reply, HasSubstr("excite_fits_stopped_total 1\n"));
   EXPECT_THAT(reply, HasSubstr("excite_fit_seconds_count 1\n"));
 
-  absl::StatusOr<v1::PredictResponse> predicted = client->Predict(predict);
+  absl::StatusOr<v1::PredictResponse> predicted = client_->Predict(predict);
   ASSERT_TRUE(predicted.ok()) << predicted.status();
-  reply = HttpGet(port, "/metrics");
+  reply = HttpGet(port_, "/metrics");
   EXPECT_THAT(reply, HasSubstr("excite_fits_stopped_total 1\n"));
   EXPECT_THAT(reply, HasSubstr("excite_fit_seconds_count 2\n"));
 }
