@@ -31,6 +31,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "client/connection_flags.h"
 #include "client/excite_client.h"
 #include "google/protobuf/text_format.h"
 #include "server/service/config_text.h"
@@ -48,13 +49,6 @@ ABSL_FLAG(std::string, session_id, "",
 ABSL_FLAG(int, timeout_s, 60, "Deadline of each call in seconds.");
 ABSL_FLAG(int, max_message_mb, 64,
           "Largest message sent or received, in MiB (export/import of big sessions).");
-ABSL_FLAG(
-    std::string, tls_ca, "",
-    "PEM CA bundle of the server's certificate: connect with TLS (default: plaintext).");
-ABSL_FLAG(std::string, tls_client_cert, "", "Mutual TLS: this client's PEM certificate.");
-ABSL_FLAG(std::string, tls_client_key, "", "Mutual TLS: this client's PEM private key.");
-ABSL_FLAG(std::string, auth_token_file, "",
-          "File holding the server's bearer token (default: $EXCITE_AUTH_TOKEN).");
 
 namespace {
 
@@ -271,13 +265,9 @@ int main(int argc, char** argv) {
   if (options.max_message_mb < 1 || options.max_message_mb > 2047) {
     return UsageError("--max_message_mb must be in [1, 2047]");
   }
-  options.tls_ca_file = absl::GetFlag(FLAGS_tls_ca);
-  options.tls_cert_file = absl::GetFlag(FLAGS_tls_client_cert);
-  options.tls_key_file = absl::GetFlag(FLAGS_tls_client_key);
-  absl::StatusOr<std::string> token =
-      excite::client::LoadAuthToken(absl::GetFlag(FLAGS_auth_token_file));
-  if (!token.ok()) return UsageError(std::string(token.status().message()));
-  options.auth_token = *token;
+  if (absl::Status s = excite::client::ApplyConnectionFlags(&options); !s.ok()) {
+    return UsageError(std::string(s.message()));
+  }
   std::unique_ptr<excite::client::ExciteClient> client =
       excite::client::ExciteClient::Connect(absl::GetFlag(FLAGS_server), options);
 

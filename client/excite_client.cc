@@ -85,8 +85,8 @@ ExciteClient::ExciteClient(std::shared_ptr<grpc::Channel> channel, ClientOptions
       stub_(v1::ExplorationService::NewStub(channel_)),
       options_(options) {}
 
-std::unique_ptr<ExciteClient> ExciteClient::Connect(const std::string& target,
-                                                    ClientOptions options) {
+std::shared_ptr<grpc::Channel> CreateChannel(const std::string& target,
+                                             const ClientOptions& options) {
   grpc::ChannelArguments args;
   // Match the server's message cap (default 64 MiB) for large Predict batches
   // and session archives.
@@ -95,10 +95,14 @@ std::unique_ptr<ExciteClient> ExciteClient::Connect(const std::string& target,
   args.SetMaxSendMessageSize(max_bytes);
   std::shared_ptr<grpc::ChannelCredentials> credentials = MakeCredentials(options);
   // Unreadable TLS files: a channel that never connects (calls: UNAVAILABLE).
-  std::shared_ptr<grpc::Channel> channel =
-      credentials != nullptr
-          ? grpc::CreateCustomChannel(target, credentials, args)
-          : grpc::CreateCustomChannel(target, grpc::SslCredentials({"-", "", ""}), args);
+  return credentials != nullptr ? grpc::CreateCustomChannel(target, credentials, args)
+                                : grpc::CreateCustomChannel(
+                                      target, grpc::SslCredentials({"-", "", ""}), args);
+}
+
+std::unique_ptr<ExciteClient> ExciteClient::Connect(const std::string& target,
+                                                    ClientOptions options) {
+  std::shared_ptr<grpc::Channel> channel = CreateChannel(target, options);
   return std::unique_ptr<ExciteClient>(new ExciteClient(std::move(channel), options));
 }
 

@@ -34,12 +34,18 @@ struct ClientOptions {
 // cannot be read.
 absl::StatusOr<std::string> LoadAuthToken(const std::string& token_file);
 
+// A channel to `target` ("host:port") with the TLS settings of `options` and
+// message caps of options.max_message_mb (default 64 MiB, the server's).
+// Plaintext unless options.tls_ca_file is set; a TLS file that cannot be read
+// gives a channel on which every call fails with UNAVAILABLE.
+std::shared_ptr<grpc::Channel> CreateChannel(const std::string& target,
+                                             const ClientOptions& options);
+
 // A thin synchronous wrapper over ExplorationService stubs: sets deadlines and
 // turns grpc::Status into absl::Status (same code, same message). Thread-safe.
 class ExciteClient {
  public:
-  // `target` is "host:port". Plaintext unless options.tls_ca_file is set; a
-  // TLS file that cannot be read makes every call fail with UNAVAILABLE.
+  // `target` is "host:port"; the channel is CreateChannel(target, options).
   static std::unique_ptr<ExciteClient> Connect(const std::string& target,
                                                ClientOptions options = {});
   // Waits until the channel is ready or the timeout passes (UNAVAILABLE).

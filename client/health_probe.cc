@@ -24,12 +24,13 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/status/status.h"
+#include "client/connection_flags.h"
+#include "client/excite_client.h"
 #include "google/protobuf/io/coded_stream.h"
 #include "google/protobuf/io/zero_copy_stream_impl_lite.h"
 #include "google/protobuf/wire_format_lite.h"
-#include "grpcpp/create_channel.h"
+#include "grpcpp/channel.h"
 #include "grpcpp/generic/generic_stub.h"
-#include "grpcpp/security/credentials.h"
 #include "grpcpp/support/byte_buffer.h"
 
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "Server address, HOST:PORT.");
@@ -136,7 +137,15 @@ int Run() {
     return 2;
   }
   const std::string server = absl::GetFlag(FLAGS_server);
-  grpc::GenericStub stub(grpc::CreateChannel(server, grpc::InsecureChannelCredentials()));
+  // TLS flags as for every client; the health service needs no token.
+  excite::client::ClientOptions options;
+  if (absl::Status s = excite::client::ApplyConnectionFlags(&options); !s.ok()) {
+    std::fprintf(stderr, "excite-health: %s\n", std::string(s.message()).c_str());
+    return 2;
+  }
+  const std::shared_ptr<grpc::ChannelInterface> channel =
+      excite::client::CreateChannel(server, options);
+  grpc::GenericStub stub(channel);
   const std::string request = EncodeRequest(absl::GetFlag(FLAGS_service));
   const auto give_up = std::chrono::steady_clock::now() +
                        std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
@@ -160,7 +169,7 @@ int main(int argc, char** argv) {
   absl::SetProgramUsageMessage(
       "Exit 0 iff the server's grpc.health.v1 status is SERVING.\n"
       "  excite-health [--server=HOST:PORT] [--service=NAME] [--timeout_s=S] "
-      "[--wait_s=W]");
+      "[--wait_s=W] [--tls_ca=PEM [--tls_client_cert=PEM --tls_client_key=PEM]]");
   std::vector<char*> rest = absl::ParseCommandLine(argc, argv);
   if (rest.size() > 1) {
     std::fprintf(stderr, "excite-health: unexpected argument %s\n", rest[1]);

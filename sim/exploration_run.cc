@@ -20,6 +20,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// PlanInputs calls retried after DEADLINE_EXCEEDED before the run fails.
+constexpr int kPlanRetries = 3;
+
 double MillisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
@@ -90,6 +93,7 @@ class ExplorationRun {
   double start_unix_s_ = 0.0;
   std::vector<double> plan_ms_;
   int64_t random_steps_ = 0;
+  int64_t plan_retries_ = 0;
   RunSummary summary_;
 };
 
@@ -161,6 +165,7 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   summary_.plan_ms_p50 = Median(plan_ms_);
   summary_.plans = static_cast<int64_t>(plan_ms_.size());
   summary_.random_steps = random_steps_;
+  summary_.plan_retries = plan_retries_;
   summary_.wall_s = MillisecondsSince(start) / 1000.0;
   return summary_;
 }
@@ -180,6 +185,20 @@ absl::Status ExplorationRun::Explore() {
     const auto plan_start = Clock::now();
     absl::StatusOr<v1::PlanInputsResponse> plan = client_.PlanInputs(
         session_name_, std::vector<double>(y_.data(), y_.data() + dx_));
+    // A plan that missed the server's time budget (typically a long refit) is
+    // retried: the server keeps the refit's progress, so the retry is shorter.
+    for (int retry = 1; retry <= kPlanRetries && !plan.ok() &&
+                        plan.status().code() == absl::StatusCode::kDeadlineExceeded;
+         ++retry) {
+      if (options_.log != nullptr) {
+        *options_.log << absl::StrFormat(
+            "PlanInputs missed its deadline at %d samples (%s); retry %d of %d\n",
+            samples_, plan.status().message(), retry, kPlanRetries);
+      }
+      ++plan_retries_;
+      plan = client_.PlanInputs(session_name_,
+                                std::vector<double>(y_.data(), y_.data() + dx_));
+    }
     if (!plan.ok()) {
       if (plan.status().code() != absl::StatusCode::kFailedPrecondition ||
           samples_ >= min_samples_) {

@@ -44,8 +44,11 @@ struct ExplorationOptions {
 //  5. Coverage of the region (session.state_bounds) by the true states x_0..x_N.
 //
 // plan_ms_p50 is the median client-side round trip of the successful PlanInputs
-// calls. Errors: any failed call (with the call and the sample count in the
-// message), a malformed reply, or a plant state that is no longer finite.
+// calls. A PlanInputs that fails with DEADLINE_EXCEEDED (the server's time budget,
+// usually spent in a long refit whose progress the server keeps) is retried up to
+// 3 times (counted in plan_retries). Errors: any other failed call (with the call and the
+// sample count in the message), a malformed reply, or a plant state that is no longer
+// finite.
 absl::StatusOr<RunSummary> RunExploration(client::ExciteClient& client,
                                           const Plant& plant, const v1::SimConfig& config,
                                           const ExplorationOptions& options);

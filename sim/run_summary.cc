@@ -71,6 +71,7 @@ std::string RunSummaryToJson(const RunSummary& summary) {
                       "  \"plan_ms_p50\": ", JsonNumber(summary.plan_ms_p50), ",\n",
                       "  \"plans\": ", summary.plans, ",\n",                //
                       "  \"random_steps\": ", summary.random_steps, ",\n",  //
+                      "  \"plan_retries\": ", summary.plan_retries, ",\n",  //
                       "  \"wall_s\": ", JsonNumber(summary.wall_s), "\n",   //
                       "}\n");
 }

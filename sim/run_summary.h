@@ -30,13 +30,14 @@ struct RunSummary {
   double plan_ms_p50 = 0.0;              // Median PlanInputs round trip [ms].
   int64_t plans = 0;                     // Successful PlanInputs calls.
   int64_t random_steps = 0;              // Random inputs applied before min_samples.
+  int64_t plan_retries = 0;              // PlanInputs retried after DEADLINE_EXCEEDED.
   double wall_s = 0.0;                   // Wall time of the whole run [s].
 };
 
 // The summary as one JSON object with the keys system, strategy, session, samples,
 // final_rmse, coverage_marginal, coverage_joint, rmse_history ([[samples, rmse], ...]),
-// plan_ms_p50, plans, random_steps, wall_s. Non-finite numbers and a missing
-// coverage_joint are written as null. Ends with a newline.
+// plan_ms_p50, plans, random_steps, plan_retries, wall_s. Non-finite numbers and a
+// missing coverage_joint are written as null. Ends with a newline.
 std::string RunSummaryToJson(const RunSummary& summary);
 
 // Writes RunSummaryToJson(summary) to `path` (replacing it). INTERNAL naming the

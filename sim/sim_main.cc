@@ -14,6 +14,7 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/strings/str_format.h"
+#include "client/connection_flags.h"
 #include "client/excite_client.h"
 #include "sim/exploration_run.h"
 #include "sim/plants/plant_factory.h"
@@ -31,13 +32,6 @@ ABSL_FLAG(int64_t, seed, -1,
 ABSL_FLAG(std::string, summary, "", "write the JSON run summary to this file");
 ABSL_FLAG(bool, keep_session, false, "keep the session on the server at the end");
 ABSL_FLAG(std::string, session_id, "", "session id to ask for; empty: server's choice");
-ABSL_FLAG(
-    std::string, tls_ca, "",
-    "PEM CA bundle of the server's certificate: connect with TLS (default: plaintext).");
-ABSL_FLAG(std::string, tls_client_cert, "", "Mutual TLS: this client's PEM certificate.");
-ABSL_FLAG(std::string, tls_client_key, "", "Mutual TLS: this client's PEM private key.");
-ABSL_FLAG(std::string, auth_token_file, "",
-          "File holding the server's bearer token (default: $EXCITE_AUTH_TOKEN).");
 ABSL_FLAG(int32_t, connect_timeout_s, 10, "how long to wait for the server to be ready");
 
 namespace excite::sim {
@@ -81,13 +75,9 @@ int Main() {
 
   const std::string server = absl::GetFlag(FLAGS_server);
   client::ClientOptions client_options;
-  client_options.tls_ca_file = absl::GetFlag(FLAGS_tls_ca);
-  client_options.tls_cert_file = absl::GetFlag(FLAGS_tls_client_cert);
-  client_options.tls_key_file = absl::GetFlag(FLAGS_tls_client_key);
-  absl::StatusOr<std::string> token =
-      client::LoadAuthToken(absl::GetFlag(FLAGS_auth_token_file));
-  if (!token.ok()) return Fail(token.status());
-  client_options.auth_token = *token;
+  if (absl::Status s = client::ApplyConnectionFlags(&client_options); !s.ok()) {
+    return Fail(s);
+  }
   std::unique_ptr<client::ExciteClient> client =
       client::ExciteClient::Connect(server, client_options);
   if (absl::Status s = client->WaitForReady(

@@ -193,7 +193,7 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
   return absl::OkStatus();
 }
 
-absl::StatusOr<FitSummary> DynamicsModel::Refit() {
+absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
   const auto t0 = std::chrono::steady_clock::now();
   State& s = *state_;
   const int n = s.n();
@@ -265,7 +265,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit() {
     fit.warm_default_start = fit.warm_default_start && default_start;
     fit.seed = SplitMix64(s.options.fit.seed ^
                           SplitMix64(static_cast<uint64_t>(s.refits) * 1024u + j));
-    results[j] = FitHyperparameters(fit, noise, s.options.fit_noise, warm, &gps[j]);
+    results[j] = FitHyperparameters(fit, noise, s.options.fit_noise, warm, &gps[j], stop);
   };
   const int threads = (outputs >= 2 && n >= kMinSamplesForThreads)
                           ? std::min(s.options.fit_threads, outputs)
@@ -291,6 +291,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit() {
     summary.iterations += r->iterations;
     summary.failed_starts += r->failed_starts;
     summary.evaluations += r->evaluations;
+    summary.stopped = summary.stopped || r->stopped;
   }
   s.gps = std::move(gps);
   s.out_mean = out_mean;
@@ -301,10 +302,14 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit() {
         ToData(s.gps[j].hyperparameters(), s.half_width, out_std(j)));
   }
   s.fitted = true;
-  s.samples_since_fit = 0;
-  if (s.options.fit_kernel &&
-      (!have_warm || (default_start && s.options.fit.warm_default_start))) {
-    s.default_start_n = n;
+  // A stopped fit keeps samples_since_fit so that the next Refit() is still due
+  // and continues from the best point seen.
+  if (!summary.stopped) {
+    s.samples_since_fit = 0;
+    if (s.options.fit_kernel &&
+        (!have_warm || (default_start && s.options.fit.warm_default_start))) {
+      s.default_start_n = n;
+    }
   }
   ++s.refits;
   summary.wall_time_ms =

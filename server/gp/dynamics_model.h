@@ -74,8 +74,11 @@ class DynamicsModel final : public DynamicsPredictor {
   // Refreshes the output standardisation, fits hyperparameters (if enabled,
   // warm-started from the previous fit) and refactorises: O(n^3) per output.
   // The summary's wall_time_ms is the elapsed time of the whole call.
+  // `stop` (see FitStopFn) ends the fit early with the best hyperparameters seen
+  // (summary.stopped): the model is then valid, but samples_since_fit() is kept,
+  // so the next Refit() continues from that point instead of being skipped.
   // FAILED_PRECONDITION with fewer than 2 samples.
-  absl::StatusOr<FitSummary> Refit();
+  absl::StatusOr<FitSummary> Refit(const FitStopFn& stop = nullptr);
 
   // Seeds the warm start of the next Refit() with `data_units` (one per output,
   // in data units, e.g. hyperparameters() saved before a restart): that fit

@@ -22,11 +22,20 @@
 namespace excite::gp {
 namespace {
 
+// Thrown by the objective when the stop callback fires; unlike a line-search
+// failure (std::exception) it ends the whole fit.
+struct FitStopped {};
+
 // Parameter vector: (log sf2, log l_1..d[, log sn2]).
 class Objective {
  public:
-  Objective(GpModel* model, int dim, bool fit_noise, double fixed_noise)
-      : model_(model), dim_(dim), fit_noise_(fit_noise), fixed_noise_(fixed_noise) {}
+  Objective(GpModel* model, int dim, bool fit_noise, double fixed_noise,
+            const FitStopFn& stop)
+      : model_(model),
+        dim_(dim),
+        fit_noise_(fit_noise),
+        fixed_noise_(fixed_noise),
+        stop_(stop) {}
 
   Hyperparameters Unpack(const Eigen::VectorXd& theta) const {
     Hyperparameters h;
@@ -38,6 +47,7 @@ class Objective {
 
   // -LML / n and its gradient; remembers the best point seen in this start.
   double operator()(const Eigen::VectorXd& theta, Eigen::VectorXd& grad) {
+    if (stop_ && stop_()) throw FitStopped{};
     ++evaluations_;
     last_theta_ = theta;
     const double scale = 1.0 / std::max(1, model_->size());
@@ -74,6 +84,7 @@ class Objective {
   int dim_;
   bool fit_noise_;
   double fixed_noise_;
+  const FitStopFn& stop_;
   int evaluations_ = 0;
   double best_f_ = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_theta_;
@@ -105,7 +116,8 @@ absl::Status CheckOptions(const FitOptions& o) {
 
 absl::StatusOr<FitSummary> FitHyperparameters(
     const FitOptions& options, double noise_variance, bool fit_noise,
-    const std::optional<Hyperparameters>& warm_start, GpModel* model) {
+    const std::optional<Hyperparameters>& warm_start, GpModel* model,
+    const FitStopFn& stop) {
   const auto t0 = std::chrono::steady_clock::now();
   if (absl::Status s = CheckOptions(options); !s.ok()) return s;
   if (model == nullptr || model->size() == 0) {
@@ -175,7 +187,7 @@ absl::StatusOr<FitSummary> FitHyperparameters(
   param.delta = options.function_tolerance;
   LBFGSpp::LBFGSBSolver<double> solver(param);
 
-  Objective objective(model, d, fit_noise, noise_variance);
+  Objective objective(model, d, fit_noise, noise_variance, stop);
   FitSummary summary;
   summary.fitted = true;
   double best_f = std::numeric_limits<double>::infinity();
@@ -188,6 +200,9 @@ absl::StatusOr<FitSummary> FitHyperparameters(
     const int evaluations_before = objective.evaluations();
     try {
       summary.iterations += solver.minimize(objective, theta, f, lb, ub);
+    } catch (const FitStopped&) {
+      summary.stopped = true;
+      summary.iterations += objective.evaluations() - evaluations_before;
     } catch (const std::exception&) {
       // Line-search failure: the functor kept the best iterate of this start.
       ++summary.failed_starts;
@@ -197,6 +212,7 @@ absl::StatusOr<FitSummary> FitHyperparameters(
       best_f = objective.best_f();
       best_theta = objective.best_theta();
     }
+    if (summary.stopped) break;
   }
   summary.evaluations = objective.evaluations();
   absl::Status status;
@@ -206,7 +222,8 @@ absl::StatusOr<FitSummary> FitHyperparameters(
       status = model->SetHyperparameters(objective.Unpack(best_theta));
     }
   } else {
-    // Every evaluation failed: fall back to the first start.
+    // Every evaluation failed (or none ran before a stop): fall back to the first
+    // start, the warm start if there is one.
     status = model->SetHyperparameters(objective.Unpack(starts.front()));
   }
   if (!status.ok()) return status;

@@ -2,6 +2,7 @@
 #define EXCITE_SERVER_GP_HYPERPARAMETER_FIT_H_
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 
 #include "absl/status/statusor.h"
@@ -70,7 +71,14 @@ struct FitSummary {
   double wall_time_ms = 0.0;
   // Added: objective evaluations (each an O(n^3) factorisation + gradient).
   int evaluations = 0;
+  // The stop callback ended the fit early; the model holds the best point seen.
+  bool stopped = false;
 };
+
+// Polled before every objective evaluation (each O(n^3)); true ends the fit.
+// May be called from several threads at once (DynamicsModel fits outputs in
+// parallel).
+using FitStopFn = std::function<bool()>;
 
 // Fits the hyperparameters of `model` (which holds the normalised data) by
 // maximising the log marginal likelihood with L-BFGS-B on log-parameters, from
@@ -80,10 +88,13 @@ struct FitSummary {
 // min_noise_variance), upper bound]; otherwise it is fixed at `noise_variance` and left
 // out of the optimisation vector. `warm_start` (if any) is clamped into the bounds. On
 // return the model is factorised with the best hyperparameters found. Deterministic for a
-// given options.seed. INVALID_ARGUMENT on bad options or an empty model.
+// given options.seed. If `stop` returns true the remaining evaluations and starts are
+// skipped and the best point seen so far is kept (summary.stopped; the warm start
+// if nothing was evaluated). INVALID_ARGUMENT on bad options or an empty model.
 absl::StatusOr<FitSummary> FitHyperparameters(
     const FitOptions& options, double noise_variance, bool fit_noise,
-    const std::optional<Hyperparameters>& warm_start, GpModel* model);
+    const std::optional<Hyperparameters>& warm_start, GpModel* model,
+    const FitStopFn& stop = nullptr);
 
 }  // namespace excite::gp
 

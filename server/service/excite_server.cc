@@ -48,8 +48,9 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
       store::SqliteStore::Open(options.data_dir);
   if (!store.ok()) return store.status();
   server->store_ = *std::move(store);
-  absl::StatusOr<std::unique_ptr<SessionRegistry>> registry =
-      SessionRegistry::Load(server->store_.get(), options.limits.max_sessions);
+  if (!options.metrics_listen.empty()) server->metrics_ = std::make_unique<Metrics>();
+  absl::StatusOr<std::unique_ptr<SessionRegistry>> registry = SessionRegistry::Load(
+      server->store_.get(), options.limits.max_sessions, server->metrics_.get());
   if (!registry.ok()) return registry.status();
   server->registry_ = *std::move(registry);
   ServiceLimits limits = options.limits;
@@ -78,8 +79,7 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
   // Never share a port with another process (gRPC enables SO_REUSEPORT otherwise).
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(server->service_.get());
-  if (!options.metrics_listen.empty()) {
-    server->metrics_ = std::make_unique<Metrics>();
+  if (server->metrics_ != nullptr) {
     std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
         interceptors;
     interceptors.push_back(MakeMetricsInterceptorFactory(server->metrics_.get()));

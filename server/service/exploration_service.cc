@@ -22,20 +22,24 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// min(client deadline - a margin for the reply, budget) as a steady-clock time.
-Clock::time_point PlanDeadline(const grpc::ServerContext& context, double budget_s) {
-  const Clock::time_point now = Clock::now();
-  Clock::duration allowed = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(budget_s));
+// The client's deadline minus a margin for the reply, as a steady-clock time;
+// time_point::max() if the client set none.
+Clock::time_point ClientDeadline(const grpc::ServerContext& context) {
   const auto client_left = context.deadline() - std::chrono::system_clock::now();
   // gRPC reports "no deadline" as a time point far in the future.
-  if (client_left < std::chrono::hours(24 * 365)) {
-    auto left = std::chrono::duration_cast<Clock::duration>(client_left);
-    // Leave time to send the reply: 10% of what is left, at most 50 ms.
-    left -= std::min<Clock::duration>(left / 10, std::chrono::milliseconds(50));
-    allowed = std::min(allowed, left);
-  }
-  return now + allowed;
+  if (client_left >= std::chrono::hours(24 * 365)) return Clock::time_point::max();
+  auto left = std::chrono::duration_cast<Clock::duration>(client_left);
+  // Leave time to send the reply: 10% of what is left, at most 50 ms.
+  left -= std::min<Clock::duration>(left / 10, std::chrono::milliseconds(50));
+  return Clock::now() + left;
+}
+
+// min(ClientDeadline, now + budget).
+Clock::time_point PlanDeadline(const grpc::ServerContext& context, double budget_s) {
+  const Clock::time_point budget_end =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                         std::chrono::duration<double>(budget_s));
+  return std::min(ClientDeadline(context), budget_end);
 }
 
 }  // namespace
@@ -228,7 +232,7 @@ grpc::Status ExplorationService::AddData(grpc::ServerContext* context,
   });
 }
 
-grpc::Status ExplorationService::Predict(grpc::ServerContext* /*context*/,
+grpc::Status ExplorationService::Predict(grpc::ServerContext* context,
                                          const v1::PredictRequest* request,
                                          v1::PredictResponse* response) {
   return RunRpc("Predict", request->session(), [&]() -> absl::Status {
@@ -240,7 +244,9 @@ grpc::Status ExplorationService::Predict(grpc::ServerContext* /*context*/,
         !s.ok()) {
       return s;
     }
-    absl::StatusOr<v1::PredictResponse> predicted = (*session)->Predict(*request);
+    absl::StatusOr<v1::PredictResponse> predicted =
+        (*session)->Predict(*request, ClientDeadline(*context),
+                            [context]() { return context->IsCancelled(); });
     if (!predicted.ok()) return predicted.status();
     *response = *std::move(predicted);
     return absl::OkStatus();

@@ -133,6 +133,18 @@ void Metrics::RecordPlan(double seconds) {
   Observe(&plan_.buckets, &plan_.count, &plan_.sum, seconds);
 }
 
+void Metrics::RecordFit(double seconds, bool stopped) {
+  absl::MutexLock lock(&mu_);
+  Observe(&fit_.buckets, &fit_.count, &fit_.sum, seconds);
+  if (stopped) ++fits_stopped_;
+}
+
+void Metrics::RecordStoreWrite(absl::string_view op, double seconds) {
+  absl::MutexLock lock(&mu_);
+  Histogram& h = store_writes_[std::string(op)];
+  Observe(&h.buckets, &h.count, &h.sum, seconds);
+}
+
 void Metrics::AddSamplesStored(int64_t n) { samples_stored_ += n; }
 
 void Metrics::AddGauge(std::string name, std::string help, std::function<double()> read) {
@@ -142,7 +154,23 @@ void Metrics::AddGauge(std::string name, std::string help, std::function<double(
 
 std::string Metrics::Render() const {
   std::string out;
-  absl::MutexLock lock(&mu_);
+  std::vector<Gauge> gauges;
+  {
+    absl::MutexLock lock(&mu_);
+    RenderRecorded(&out);
+    gauges = gauges_;
+  }
+  // Gauges read session state: outside mu_, which sessions take while they hold
+  // their own locks (RecordFit, RecordStoreWrite).
+  for (const Gauge& g : gauges) {
+    absl::StrAppend(&out, "# HELP ", g.name, " ", g.help, "\n# TYPE ", g.name, " gauge\n",
+                    g.name, " ", g.read(), "\n");
+  }
+  return out;
+}
+
+void Metrics::RenderRecorded(std::string* out_ptr) const {
+  std::string& out = *out_ptr;
   absl::StrAppend(&out, "# HELP excite_rpc_total RPCs finished, by method and code.\n",
                   "# TYPE excite_rpc_total counter\n");
   for (const auto& [key, h] : rpcs_) {
@@ -163,15 +191,27 @@ std::string Metrics::Render() const {
                   "PlanInputs calls.\n# TYPE excite_plan_seconds histogram\n");
   AppendHistogram(&out, "excite_plan_seconds", "", plan_.buckets, plan_.count, plan_.sum);
   absl::StrAppend(&out,
+                  "# HELP excite_fit_seconds Wall time of GP refits (hyperparameter "
+                  "fit and factorisation).\n# TYPE excite_fit_seconds histogram\n");
+  AppendHistogram(&out, "excite_fit_seconds", "", fit_.buckets, fit_.count, fit_.sum);
+  absl::StrAppend(&out,
+                  "# HELP excite_fits_stopped_total Refits ended early by a deadline "
+                  "or cancellation.\n# TYPE excite_fits_stopped_total counter\n"
+                  "excite_fits_stopped_total ",
+                  fits_stopped_, "\n");
+  absl::StrAppend(&out,
+                  "# HELP excite_store_write_seconds Durable store writes (fsync "
+                  "included), by operation.\n"
+                  "# TYPE excite_store_write_seconds histogram\n");
+  for (const auto& [op, h] : store_writes_) {
+    AppendHistogram(&out, "excite_store_write_seconds", absl::StrCat("op=\"", op, "\""),
+                    h.buckets, h.count, h.sum);
+  }
+  absl::StrAppend(&out,
                   "# HELP excite_samples_stored_total Transitions stored by AddData.\n"
                   "# TYPE excite_samples_stored_total counter\n"
                   "excite_samples_stored_total ",
                   samples_stored_.load(), "\n");
-  for (const Gauge& g : gauges_) {
-    absl::StrAppend(&out, "# HELP ", g.name, " ", g.help, "\n# TYPE ", g.name, " gauge\n",
-                    g.name, " ", g.read(), "\n");
-  }
-  return out;
 }
 
 std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>

@@ -24,6 +24,10 @@ namespace excite::service {
 //   excite_samples_stored_total                   counter (AddData's `stored`)
 //   excite_plan_seconds                           histogram (PlanInputs' solver
 //                                                 wall time, wall_time_ms)
+//   excite_fit_seconds                            histogram (GP refits)
+//   excite_fits_stopped_total                     counter (refits ended early by a
+//                                                 deadline or cancellation)
+//   excite_store_write_seconds{op}                histogram (durable store writes)
 //   gauges registered with AddGauge (sessions, samples).
 // Thread-safe.
 class Metrics {
@@ -37,6 +41,11 @@ class Metrics {
   void AddSamplesStored(int64_t n);
   // One successful plan's solver wall time.
   void RecordPlan(double seconds);
+  // One refit of a session's GP (ML-II fit and factorisation); `stopped` if a
+  // deadline or cancellation ended it early.
+  void RecordFit(double seconds, bool stopped);
+  // One durable store write; `op` names it ("insert_samples", "save_model").
+  void RecordStoreWrite(absl::string_view op, double seconds);
   // A gauge read at every scrape; `read` must stay callable while this lives.
   void AddGauge(std::string name, std::string help, std::function<double()> read);
 
@@ -54,11 +63,17 @@ class Metrics {
     std::function<double()> read;
   };
 
+  // Everything but the gauges.
+  void RenderRecorded(std::string* out) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+
   mutable absl::Mutex mu_;
   // (method, code) -> latency histogram (its count is the RPC count).
   std::map<std::pair<std::string, std::string>, Histogram> rpcs_ ABSL_GUARDED_BY(mu_);
   std::vector<Gauge> gauges_ ABSL_GUARDED_BY(mu_);
   Histogram plan_ ABSL_GUARDED_BY(mu_);
+  Histogram fit_ ABSL_GUARDED_BY(mu_);
+  int64_t fits_stopped_ ABSL_GUARDED_BY(mu_) = 0;
+  std::map<std::string, Histogram> store_writes_ ABSL_GUARDED_BY(mu_);
   std::atomic<int64_t> samples_stored_{0};
 };
 

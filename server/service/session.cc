@@ -39,6 +39,10 @@ void AppendRowMajor(const Eigen::MatrixXd& matrix,
   }
 }
 
+double SecondsSince(Session::Clock::time_point start) {
+  return std::chrono::duration<double>(Session::Clock::now() - start).count();
+}
+
 absl::Status NotDeleted(const std::string& name) {
   return absl::NotFoundError(absl::StrCat("session ", name, " not found"));
 }
@@ -229,7 +233,11 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
           "session ", name_, " has ", sample_count_, " samples; ", batch.size(),
           " more would exceed the cap of ", max_samples, " per session"));
     }
+    const Clock::time_point write_start = Clock::now();
     absl::StatusOr<store::InsertResult> inserted = store_->InsertSamples(id_, batch);
+    if (metrics_ != nullptr && inserted.ok()) {
+      metrics_->RecordStoreWrite("insert_samples", SecondsSince(write_start));
+    }
     if (!inserted.ok()) {
       if (absl::IsNotFound(inserted.status())) return NotDeleted(name_);
       return absl::Status(inserted.status().code(),
@@ -276,7 +284,8 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
   return response;
 }
 
-absl::Status Session::EnsureFitted() {
+absl::Status Session::EnsureFitted(Clock::time_point deadline,
+                                   const std::function<bool()>& cancelled) {
   const int64_t min_samples = config_.refit().min_samples();
   if (sample_count_ < min_samples) {
     return absl::FailedPreconditionError(absl::StrCat(
@@ -287,9 +296,12 @@ absl::Status Session::EnsureFitted() {
                          model_.samples_since_fit() >= config_.refit().every_samples();
   if (model_.fitted() && !refit_due) return absl::OkStatus();
 
+  const gp::FitStopFn stop = [&]() {
+    return Clock::now() >= deadline || (cancelled && cancelled());
+  };
   absl::StatusOr<gp::FitSummary> summary;
   try {
-    summary = model_.Refit();
+    summary = model_.Refit(stop);
   } catch (const std::exception& e) {
     summary = InternalFromException("refit", e);
   }
@@ -300,30 +312,50 @@ absl::Status Session::EnsureFitted() {
   }
   ++model_version_;
   PublishInfo();
+  if (metrics_ != nullptr) {
+    metrics_->RecordFit(summary->wall_time_ms / 1000.0, summary->stopped);
+  }
   if (LogEnabled(LogLevel::kDebug)) {
     Log(LogLevel::kDebug,
         absl::StrCat("refit ", name_, " n=", sample_count_, " starts=", summary->starts,
-                     " iterations=", summary->iterations, " failed_starts=",
-                     summary->failed_starts, " ms=", summary->wall_time_ms));
+                     " iterations=", summary->iterations,
+                     " failed_starts=", summary->failed_starts,
+                     " ms=", summary->wall_time_ms, summary->stopped ? " stopped" : ""));
   }
   v1::Session saved;
   {
     absl::MutexLock lock(&info_mu_);
     for (const v1::OutputModel& output : info_.outputs) *saved.add_outputs() = output;
   }
+  const Clock::time_point write_start = Clock::now();
   if (absl::Status s =
           store_->SaveModelState(id_, saved.SerializeAsString(), model_version_);
       !s.ok()) {
     Log(LogLevel::kWarning,
         absl::StrCat("saving the hyperparameters of ", name_, " failed: ", s.ToString()));
+  } else if (metrics_ != nullptr) {
+    metrics_->RecordStoreWrite("save_model", SecondsSince(write_start));
   }
-  return absl::OkStatus();
+  if (!summary->stopped) return absl::OkStatus();
+  // The best hyperparameters so far are in place and saved; the next call
+  // continues the fit.
+  if (cancelled && cancelled()) {
+    return absl::CancelledError(
+        absl::StrCat("the refit of session ", name_, " was cancelled by the client"));
+  }
+  return absl::DeadlineExceededError(absl::StrCat(
+      "the deadline passed during the refit of session ", name_, " (", sample_count_,
+      " samples, ", static_cast<int64_t>(summary->wall_time_ms),
+      " ms); the best hyperparameters so far are kept and the next call continues "
+      "the fit: retry with a longer deadline"));
 }
 
-absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& request) {
+absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& request,
+                                                     Clock::time_point deadline,
+                                                     std::function<bool()> cancelled) {
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
-  if (absl::Status s = EnsureFitted(); !s.ok()) return s;
+  if (absl::Status s = EnsureFitted(deadline, cancelled); !s.ok()) return s;
   const int dx = config_.state_dim();
   const int z_dim = dx + config_.input_dim();
   const Eigen::Index m = request.inputs_size() / z_dim;
@@ -358,19 +390,19 @@ absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& r
 }
 
 absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
-    const v1::PlanInputsRequest& request, std::chrono::steady_clock::time_point deadline,
+    const v1::PlanInputsRequest& request, Clock::time_point deadline,
     std::function<bool()> cancelled) {
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
   // prbs, chirp and random never evaluate the model: no data needed, no refit.
   const bool model_free = plan::IsModelFree(planner_.options().strategy);
   if (!model_free) {
-    if (absl::Status s = EnsureFitted(); !s.ok()) return s;
+    if (absl::Status s = EnsureFitted(deadline, cancelled); !s.ok()) return s;
   }
   if (cancelled && cancelled()) {
     return absl::CancelledError("PlanInputs was cancelled by the client");
   }
-  if (std::chrono::steady_clock::now() >= deadline) {
+  if (Clock::now() >= deadline) {
     return absl::DeadlineExceededError(absl::StrCat(
         "PlanInputs on ", name_, ": the deadline passed before planning started"));
   }

@@ -17,6 +17,7 @@
 #include "excite/v1/session_config.pb.h"
 #include "server/gp/dynamics_model.h"
 #include "server/plan/planner.h"
+#include "server/service/metrics.h"
 #include "server/store/sqlite_store.h"
 #include "server/store/store_records.h"
 
@@ -34,8 +35,13 @@ namespace excite::service {
 // or when kernel.fit is on, refit.never is off and at least refit.every_samples
 // samples arrived since the last fit. After a refit the hyperparameters are saved
 // in the store (a failure to save is logged, not returned: they are a cache).
+// A refit honours the calling RPC's deadline and cancellation: it stops with the
+// best hyperparameters found so far, the call fails with DEADLINE_EXCEEDED or
+// CANCELLED, and the next call continues the fit from there.
 class Session {
  public:
+  using Clock = std::chrono::steady_clock;
+
   // A new, empty session. `config` must have passed ValidateSessionConfig.
   // `store` must outlive the session. Does not write the store.
   static absl::StatusOr<std::shared_ptr<Session>> Create(std::string id,
@@ -58,6 +64,10 @@ class Session {
   const std::string& name() const { return name_; }
   const v1::SessionConfig& config() const { return config_; }
 
+  // Where refit and store-write timings go (nullptr: nowhere, the default). Call
+  // before the session is shared; `metrics` must outlive it.
+  void AttachMetrics(Metrics* metrics) { metrics_ = metrics; }
+
   // name, config, sample_count, last_sequence, model_version and (when fitted,
   // or restored with saved hyperparameters) outputs.
   v1::Session Describe() const;
@@ -72,8 +82,11 @@ class Session {
 
   // Mean and latent (+ noise if asked) variance at each z. Inputs must have been
   // checked with ValidatePredictInputs. FAILED_PRECONDITION before
-  // refit.min_samples samples.
-  absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request);
+  // refit.min_samples samples; DEADLINE_EXCEEDED or CANCELLED if a due refit was
+  // stopped by `deadline` or `cancelled`.
+  absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request,
+                                              Clock::time_point deadline,
+                                              std::function<bool()> cancelled);
 
   // Plans from `state` (checked with ValidatePlanState) within `deadline`,
   // polling `cancelled`. DEADLINE_EXCEEDED if the deadline passed before a plan
@@ -82,9 +95,9 @@ class Session {
   // neither need data nor refit: they return the next `horizon` samples of their
   // signal, starting at time index = the number of samples the session holds, and
   // no predicted states or variances.
-  absl::StatusOr<v1::PlanInputsResponse> PlanInputs(
-      const v1::PlanInputsRequest& request,
-      std::chrono::steady_clock::time_point deadline, std::function<bool()> cancelled);
+  absl::StatusOr<v1::PlanInputsResponse> PlanInputs(const v1::PlanInputsRequest& request,
+                                                    Clock::time_point deadline,
+                                                    std::function<bool()> cancelled);
 
   // The session as a SessionArchive: config, every sample in sequence order and
   // the saved hyperparameters, read from the store (so exactly what a restart
@@ -109,14 +122,18 @@ class Session {
           store::SqliteStore* store);
 
   absl::Status CheckUsable() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  // FAILED_PRECONDITION before min_samples, then the lazy refit.
-  absl::Status EnsureFitted() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // FAILED_PRECONDITION before min_samples, then the lazy refit, stopped early
+  // (DEADLINE_EXCEEDED / CANCELLED) by `deadline` or `cancelled`.
+  absl::Status EnsureFitted(Clock::time_point deadline,
+                            const std::function<bool()>& cancelled)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   void PublishInfo() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   const std::string id_;
   const std::string name_;
   const v1::SessionConfig config_;
   store::SqliteStore* const store_;
+  Metrics* metrics_ = nullptr;
 
   absl::Mutex mu_;
   gp::DynamicsModel model_ ABSL_GUARDED_BY(mu_);

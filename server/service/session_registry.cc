@@ -36,12 +36,14 @@ absl::StatusOr<std::string> DecodeToken(const std::string& token) {
 
 }  // namespace
 
-SessionRegistry::SessionRegistry(store::SqliteStore* store, int64_t max_sessions)
-    : store_(store), max_sessions_(max_sessions) {}
+SessionRegistry::SessionRegistry(store::SqliteStore* store, int64_t max_sessions,
+                                 Metrics* metrics)
+    : store_(store), max_sessions_(max_sessions), metrics_(metrics) {}
 
 absl::StatusOr<std::unique_ptr<SessionRegistry>> SessionRegistry::Load(
-    store::SqliteStore* store, int64_t max_sessions) {
-  std::unique_ptr<SessionRegistry> registry(new SessionRegistry(store, max_sessions));
+    store::SqliteStore* store, int64_t max_sessions, Metrics* metrics) {
+  std::unique_ptr<SessionRegistry> registry(
+      new SessionRegistry(store, max_sessions, metrics));
   absl::StatusOr<std::vector<store::SessionRecord>> records = store->LoadSessions();
   if (!records.ok()) return records.status();
   absl::MutexLock lock(&registry->mu_);
@@ -54,6 +56,7 @@ absl::StatusOr<std::unique_ptr<SessionRegistry>> SessionRegistry::Load(
     if (!session.ok()) return session.status();
     Log(LogLevel::kInfo, absl::StrCat("loaded ", (*session)->name(), " with ",
                                       samples->size(), " samples"));
+    (*session)->AttachMetrics(metrics);
     registry->sessions_.emplace(record.id, *std::move(session));
   }
   return registry;
@@ -72,8 +75,9 @@ std::string SessionRegistry::GenerateId() {
 
 absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Create(
     const std::string& session_id, const v1::SessionConfig& config) {
-  if (absl::Status s = CheckOptionalSessionId(session_id, "session_id"); !s.ok())
+  if (absl::Status s = CheckOptionalSessionId(session_id, "session_id"); !s.ok()) {
     return s;
+  }
   absl::StatusOr<v1::SessionConfig> validated = ValidatedSessionConfig(config, "config");
   if (!validated.ok()) return validated.status();
 
@@ -88,6 +92,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Create(
   record.config = validated->SerializeAsString();
   record.created_unix_ms = absl::ToUnixMillis(absl::Now());
   if (absl::Status s = store_->CreateSession(record); !s.ok()) return s;
+  (*session)->AttachMetrics(metrics_);
   sessions_.emplace(*id, *session);
   return session;
 }
@@ -119,6 +124,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Import(
       Session::Restore(record, samples, store_);
   if (!session.ok()) return session.status();
   if (absl::Status s = store_->ImportSession(record, samples); !s.ok()) return s;
+  (*session)->AttachMetrics(metrics_);
   sessions_.emplace(*id, *session);
   return session;
 }

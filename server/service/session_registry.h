@@ -24,9 +24,10 @@ namespace excite::service {
 class SessionRegistry {
  public:
   // Loads every stored session and its samples (GPs are rebuilt from the data and
-  // fitted lazily at first use). `store` must outlive the registry.
-  static absl::StatusOr<std::unique_ptr<SessionRegistry>> Load(store::SqliteStore* store,
-                                                               int64_t max_sessions);
+  // fitted lazily at first use). `store` and `metrics` (nullable: no timings
+  // recorded) must outlive the registry.
+  static absl::StatusOr<std::unique_ptr<SessionRegistry>> Load(
+      store::SqliteStore* store, int64_t max_sessions, Metrics* metrics = nullptr);
 
   // Creates and stores a session. `session_id` empty: a fresh id is generated.
   // INVALID_ARGUMENT for a malformed id or config (field path under "config"),
@@ -62,7 +63,7 @@ class SessionRegistry {
   int64_t size() const;
 
  private:
-  SessionRegistry(store::SqliteStore* store, int64_t max_sessions);
+  SessionRegistry(store::SqliteStore* store, int64_t max_sessions, Metrics* metrics);
   std::string GenerateId() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // `session_id`, or a generated one if empty, if it is free and the cap allows
   // one more session (ALREADY_EXISTS, RESOURCE_EXHAUSTED otherwise).
@@ -71,6 +72,7 @@ class SessionRegistry {
 
   store::SqliteStore* const store_;
   const int64_t max_sessions_;
+  Metrics* const metrics_;
   mutable absl::Mutex mu_;
   std::map<std::string, std::shared_ptr<Session>> sessions_ ABSL_GUARDED_BY(mu_);
   absl::BitGen bitgen_ ABSL_GUARDED_BY(mu_);

@@ -208,6 +208,35 @@ TEST(DynamicsModelTest, FitLearnsPendulumAndIsDeterministic) {
   EXPECT_TRUE((var.array() > 0).all());
 }
 
+// A stopped Refit() leaves a usable model with the best hyperparameters so far
+// and keeps the refit due; the next Refit() continues and does not end lower.
+TEST(DynamicsModelTest, StoppedRefitIsUsableAndStaysDue) {
+  DynamicsModelOptions o = BaseOptions(Target::kDelta);
+  o.fit_threads = 1;  // count the stop calls deterministically
+  absl::StatusOr<DynamicsModel> m = DynamicsModel::Create(o);
+  ASSERT_TRUE(m.ok());
+  const Transitions d = MakeTransitions(120, 8);
+  ASSERT_TRUE(m->AddSamples(d.x, d.u, d.next).ok());
+  int calls = 0;
+  const absl::StatusOr<FitSummary> stopped = m->Refit([&calls]() { return ++calls > 3; });
+  ASSERT_TRUE(stopped.ok()) << stopped.status();
+  EXPECT_TRUE(stopped->stopped);
+  EXPECT_TRUE(m->fitted());
+  EXPECT_EQ(m->samples_since_fit(), 120);  // still due
+  Eigen::MatrixXd mean, var;
+  m->Predict(Z(d).topRows(5), &mean, &var, nullptr, nullptr);
+  EXPECT_TRUE(mean.allFinite() && var.allFinite());
+  const std::vector<double> lml_stopped = m->log_marginal_likelihoods();
+
+  const absl::StatusOr<FitSummary> resumed = m->Refit();
+  ASSERT_TRUE(resumed.ok()) << resumed.status();
+  EXPECT_FALSE(resumed->stopped);
+  EXPECT_EQ(m->samples_since_fit(), 0);
+  const std::vector<double> lml = m->log_marginal_likelihoods();
+  ASSERT_EQ(lml.size(), lml_stopped.size());
+  for (size_t j = 0; j < lml.size(); ++j) EXPECT_GE(lml[j], lml_stopped[j] - 1e-9);
+}
+
 // Scaling the state by 4 (exact in binary) scales the data-unit hyperparameters
 // (lengthscales of the state inputs, variances) and leaves normalised ones alone.
 TEST(DynamicsModelTest, HyperparametersAreInDataUnits) {

@@ -142,6 +142,55 @@ TEST(HyperparameterFitTest, DeterministicForSeed) {
   EXPECT_EQ(a.hyperparameters().noise_variance, b.hyperparameters().noise_variance);
 }
 
+// A stop after k evaluations: exactly k evaluations ran, the remaining starts were
+// skipped, and the model holds the best point seen (LML of the warm start or
+// better); a stop before any evaluation leaves the warm start.
+TEST(HyperparameterFitTest, StopEndsTheFitWithTheBestPointSoFar) {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+  SampleFromGp(Truth(), 80, 6, &x, &y);
+  Hyperparameters warm;
+  warm.signal_variance = 5.0;
+  warm.lengthscales = Eigen::Vector2d(3.0, 0.1);
+  warm.noise_variance = 0.3;
+  const double lml_warm = testing::ReferenceGp(x, y, warm).LogMarginalLikelihood();
+  FitOptions options;
+  options.warm_restarts = 2;
+  GpModel full;
+  ASSERT_TRUE(full.Reset(x, y, warm).ok());
+  const absl::StatusOr<FitSummary> unstopped =
+      FitHyperparameters(options, 1e-4, true, warm, &full);
+  ASSERT_TRUE(unstopped.ok()) << unstopped.status();
+  EXPECT_FALSE(unstopped->stopped);
+  ASSERT_GT(unstopped->evaluations, 8);
+
+  int calls = 0;
+  const FitStopFn after_five = [&calls]() { return ++calls > 5; };
+  GpModel gp;
+  ASSERT_TRUE(gp.Reset(x, y, warm).ok());
+  const absl::StatusOr<FitSummary> stopped =
+      FitHyperparameters(options, 1e-4, true, warm, &gp, after_five);
+  ASSERT_TRUE(stopped.ok()) << stopped.status();
+  EXPECT_TRUE(stopped->stopped);
+  EXPECT_EQ(stopped->evaluations, 5);
+  EXPECT_EQ(stopped->starts, 1);  // the other starts were skipped
+  EXPECT_GT(gp.log_marginal_likelihood(), lml_warm);
+  EXPECT_LE(gp.log_marginal_likelihood(), full.log_marginal_likelihood() + 1e-9);
+  const testing::ReferenceGp ref(x, y, gp.hyperparameters());
+  EXPECT_LT(testing::RelErr(gp.log_marginal_likelihood(), ref.LogMarginalLikelihood()),
+            1e-8);
+
+  GpModel at_once;
+  ASSERT_TRUE(at_once.Reset(x, y, Truth()).ok());
+  const absl::StatusOr<FitSummary> none =
+      FitHyperparameters(options, 1e-4, true, warm, &at_once, [] { return true; });
+  ASSERT_TRUE(none.ok()) << none.status();
+  EXPECT_TRUE(none->stopped);
+  EXPECT_EQ(none->evaluations, 0);
+  EXPECT_TRUE(at_once.hyperparameters().lengthscales.isApprox(warm.lengthscales, 1e-12));
+  EXPECT_LT(testing::RelErr(at_once.log_marginal_likelihood(), lml_warm), 1e-8);
+}
+
 TEST(HyperparameterFitTest, RejectsBadOptions) {
   Eigen::MatrixXd x;
   Eigen::VectorXd y;

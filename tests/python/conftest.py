@@ -24,13 +24,14 @@ import excite  # noqa: E402
 class ServerProcess:
     """excite-server as a child process; `address` is HOST:PORT once started."""
 
-    def __init__(self, data_dir):
+    def __init__(self, data_dir, extra_args=()):
         self.binary = os.environ.get(
             "EXCITE_SERVER_BIN", str(REPO / "build" / "release" / "server" / "excite-server"))
         if not os.access(self.binary, os.X_OK):
             pytest.fail(f"excite-server not found at {self.binary} (build first or set "
                         "EXCITE_SERVER_BIN)")
         self.data_dir = data_dir
+        self.extra_args = list(extra_args)
         self.process = None
         self.address = None
         self.stderr_lines = []
@@ -38,7 +39,7 @@ class ServerProcess:
     def start(self, timeout_s=20):
         self.process = subprocess.Popen(
             [self.binary, "--listen=127.0.0.1:0", f"--data_dir={self.data_dir}",
-             "--log_level=warning"],
+             "--log_level=warning"] + self.extra_args,
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         threading.Thread(target=self._drain_stderr, daemon=True).start()
         line = []

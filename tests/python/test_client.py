@@ -345,3 +345,59 @@ def test_session_calls_carry_the_routing_header():
     assert [m for m, _ in seen] == ["CreateSession", "GetSession", "AddData", "AddData",
                                     "Predict", "PlanInputs", "GetSession", "DeleteSession"]
     assert all(header == "routed" for _, header in seen), seen
+
+
+def make_certificates(directory):
+    """A CA, a server certificate for 127.0.0.1 and a client certificate (openssl)."""
+    script = """
+    openssl req -x509 -newkey rsa:2048 -nodes -keyout ca.key -out ca.pem -days 1 \
+        -subj /CN=excite-test-ca
+    printf 'subjectAltName=IP:127.0.0.1,DNS:localhost\\n' > server.ext
+    openssl req -newkey rsa:2048 -nodes -keyout server.key -out server.csr -subj /CN=localhost
+    openssl x509 -req -in server.csr -CA ca.pem -CAkey ca.key -CAcreateserial \
+        -out server.pem -days 1 -extfile server.ext
+    openssl req -newkey rsa:2048 -nodes -keyout client.key -out client.csr \
+        -subj /CN=excite-test-client
+    openssl x509 -req -in client.csr -CA ca.pem -CAkey ca.key -CAcreateserial \
+        -out client.pem -days 1
+    """
+    subprocess.run(["sh", "-e", "-c", script], cwd=directory, check=True,
+                   capture_output=True)
+    return {name: str(directory / name) for name in
+            ("ca.pem", "server.pem", "server.key", "client.pem", "client.key")}
+
+
+def test_mutual_tls_and_token(tmp_path, monkeypatch):
+    files = make_certificates(tmp_path)
+    (tmp_path / "token").write_text("s3cret-token\n")
+    server = ServerProcess(tmp_path / "data", [
+        f"--tls_cert={files['server.pem']}", f"--tls_key={files['server.key']}",
+        f"--tls_client_ca={files['ca.pem']}", f"--auth_token_file={tmp_path / 'token'}",
+    ]).start()
+    try:
+        monkeypatch.delenv("EXCITE_AUTH_TOKEN", raising=False)
+        tls = dict(tls_ca=files["ca.pem"], tls_client_cert=files["client.pem"],
+                   tls_client_key=files["client.key"], timeout_s=10)
+        with excite.Client(server.address, auth_token="s3cret-token", **tls) as c:
+            c.wait_for_ready(10)
+            assert c.health() == "SERVING"
+            session = c.create_session(linear_config(), "tls-1")
+            session.add(*linear_data(5, 1)[:3])
+            assert session.refresh().sample_count == 5
+        with excite.Client(server.address, **tls) as c:  # no token: health only
+            assert c.health() == "SERVING"
+            with pytest.raises(grpc.RpcError) as error:
+                list(c.list_sessions())
+            assert error.value.code() == grpc.StatusCode.UNAUTHENTICATED
+        monkeypatch.setenv("EXCITE_AUTH_TOKEN", "s3cret-token")  # the default source
+        with excite.Client(server.address, **tls) as c:
+            assert [s.id for s in c.list_sessions()] == ["tls-1"]
+        with excite.Client(server.address, timeout_s=5) as c:  # plaintext: refused
+            with pytest.raises(grpc.RpcError) as error:
+                list(c.list_sessions())
+            assert error.value.code() == grpc.StatusCode.UNAVAILABLE
+        with pytest.raises(ValueError, match="go together"):
+            excite.Client(server.address, tls_ca=files["ca.pem"],
+                          tls_client_cert=files["client.pem"])
+    finally:
+        assert server.stop() == 0

@@ -81,6 +81,10 @@ TEST(MetricsTest, CountsRpcsSessionsAndSamples) {
       client->AddData(session->name(), {excite::testing::PendulumTransitions(7, 0, 1)})
           .ok());
   ASSERT_TRUE(client->PlanInputs(session->name(), {0.1, 0.0}).ok());
+  v1::PredictRequest predict;
+  predict.set_session(session->name());
+  for (double v : {0.1, 0.2, 0.3}) predict.add_inputs(v);
+  ASSERT_TRUE(client->Predict(predict).ok());  // the first (and only) refit
 
   const std::string reply = HttpGet(port, "/metrics");
   EXPECT_THAT(reply, StartsWith("HTTP/1.0 200 OK\r\n"));
@@ -99,8 +103,72 @@ TEST(MetricsTest, CountsRpcsSessionsAndSamples) {
   EXPECT_THAT(reply, HasSubstr("excite_sessions 1\n"));
   EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_count 1\n"));
   EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_bucket{le=\"+Inf\"} 1\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_fit_seconds_count 1\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_fits_stopped_total 0\n"));
+  EXPECT_THAT(reply,
+              HasSubstr("excite_store_write_seconds_count{op=\"insert_samples\"} 1\n"));
+  EXPECT_THAT(reply,
+              HasSubstr("excite_store_write_seconds_count{op=\"save_model\"} 1\n"));
   EXPECT_THAT(HttpGet(port, "/other"), StartsWith("HTTP/1.0 404"));
   EXPECT_THAT(reply, Not(HasSubstr("UNKNOWN")));
+}
+
+// A Predict whose deadline passes during a long refit: the server stops the fit
+// (counted in excite_fits_stopped_total) instead of finishing it for a client that
+// has gone, keeps the best hyperparameters so far, and the next call completes
+// the fit.
+TEST(MetricsTest, RefitStopsAtTheClientDeadlineAndResumes) {
+  excite::testing::TempDir tmp;
+  ServerOptions options;
+  options.listen = "127.0.0.1:0";
+  options.data_dir = tmp.path() + "/data";
+  options.metrics_listen = "127.0.0.1:0";
+  absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
+  ASSERT_TRUE(server.ok()) << server.status();
+  const int port = (*server)->metrics_port();
+  std::unique_ptr<client::ExciteClient> client =
+      client::ExciteClient::Connect((*server)->address());
+  // 600 samples and 8 starts per output: a complete cold fit takes seconds here.
+  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(R"pb(
+    state_dim: 2
+    input_dim: 1
+    input_bounds { lower: -3 upper: 3 }
+    noise { variance: 1e-4 fit: true }
+    kernel { fit: true restarts: 7 max_iterations: 40 }
+    strategy: STRATEGY_RANDOM
+    horizon: 5
+  )pb");
+  ASSERT_TRUE(config.ok()) << config.status();
+  absl::StatusOr<v1::Session> session = client->CreateSession(*config, "slow");
+  ASSERT_TRUE(session.ok()) << session.status();
+  ASSERT_TRUE(
+      client->AddData(session->name(), {excite::testing::PendulumTransitions(600, 0, 3)})
+          .ok());
+  v1::PredictRequest predict;
+  predict.set_session(session->name());
+  for (double v : {0.1, 0.2, 0.3}) predict.add_inputs(v);
+
+  client::ClientOptions hurried;
+  hurried.default_deadline = std::chrono::milliseconds(100);
+  std::unique_ptr<client::ExciteClient> impatient =
+      client::ExciteClient::Connect((*server)->address(), hurried);
+  EXPECT_EQ(impatient->Predict(predict).status().code(),
+            absl::StatusCode::kDeadlineExceeded);
+  // The server notices at its next objective evaluation and records the stop.
+  std::string reply;
+  for (int i = 0; i < 200; ++i) {
+    reply = HttpGet(port, "/metrics");
+    if (reply.find("excite_fit_seconds_count 1\n") != std::string::npos) break;
+    usleep(50 * 1000);
+  }
+  EXPECT_THAT(reply, HasSubstr("excite_fits_stopped_total 1\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_fit_seconds_count 1\n"));
+
+  absl::StatusOr<v1::PredictResponse> predicted = client->Predict(predict);
+  ASSERT_TRUE(predicted.ok()) << predicted.status();
+  reply = HttpGet(port, "/metrics");
+  EXPECT_THAT(reply, HasSubstr("excite_fits_stopped_total 1\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_fit_seconds_count 2\n"));
 }
 
 }  // namespace

@@ -85,6 +85,10 @@ class FakeService final : public v1::ExplorationService::Service {
     if (transitions_.size() < 2 || refuse_plans_) {
       return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, "need 2 samples");
     }
+    if (transitions_.size() == 5 && late_plans_at_5 > 0) {
+      --late_plans_at_5;
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, "refit took too long");
+    }
     const int horizon = config_.horizon();
     for (int i = 0; i < horizon; ++i) reply->add_inputs(planned_input);
     reply->set_horizon(horizon);
@@ -102,6 +106,7 @@ class FakeService final : public v1::ExplorationService::Service {
   int exact_after = 1000000;
   double planned_input = 10.0;  // Outside the bounds: the client clips it.
   bool refuse_plans_ = false;
+  int late_plans_at_5 = 0;  // PlanInputs answering DEADLINE_EXCEEDED at 5 samples
 };
 
 class ExplorationRunTest : public testing::Test {
@@ -202,6 +207,33 @@ TEST_F(ExplorationRunTest, KeepSession) {
   options.keep_session = true;
   ASSERT_TRUE(Run(options).ok());
   EXPECT_TRUE(service_->deleted_.empty());
+}
+
+// DEADLINE_EXCEEDED is retried up to 3 times (the server keeps a stopped refit's
+// progress); a 4th is an error naming the call.
+TEST_F(ExplorationRunTest, PlanDeadlinesAreRetriedThreeTimes) {
+  config_.set_samples(12);
+  service_->late_plans_at_5 = 3;
+  std::ostringstream log;
+  ExplorationOptions options;
+  options.log = &log;
+  absl::StatusOr<RunSummary> summary = Run(options);
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->samples, 12);
+  EXPECT_EQ(summary->plan_retries, 3);
+  EXPECT_EQ(summary->plans, 10);
+  EXPECT_NE(log.str().find("PlanInputs missed its deadline at 5 samples (refit took too "
+                           "long); retry 3 of 3"),
+            std::string::npos)
+      << log.str();
+
+  service_->transitions_.clear();
+  service_->late_plans_at_5 = 4;
+  summary = Run();
+  ASSERT_FALSE(summary.ok());
+  EXPECT_EQ(summary.status().code(), absl::StatusCode::kDeadlineExceeded);
+  EXPECT_NE(summary.status().message().find("PlanInputs"), std::string::npos)
+      << summary.status();
 }
 
 TEST_F(ExplorationRunTest, FailedPreconditionAfterMinSamplesIsAnError) {

@@ -41,6 +41,7 @@ TEST(RunSummaryTest, Json) {
             "  \"plan_ms_p50\": 12,\n"
             "  \"plans\": 18,\n"
             "  \"random_steps\": 2,\n"
+            "  \"plan_retries\": 0,\n"
             "  \"wall_s\": 3\n"
             "}\n");
 }

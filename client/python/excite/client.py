@@ -6,6 +6,7 @@ strings or files, or messages. Errors are the server's: ``grpc.RpcError`` with
 ``.details()``. The raw stub is ``Client.stub`` for anything not wrapped here.
 """
 
+import collections
 import dataclasses
 import os
 import pathlib
@@ -139,22 +140,73 @@ class Plan:
         return self.inputs[: self.apply_count]
 
 
+class _BearerToken(grpc.UnaryUnaryClientInterceptor,
+                   grpc.StreamUnaryClientInterceptor):
+    """Adds "authorization: Bearer <token>" to every call (plaintext loopback
+    included, where gRPC's call credentials would refuse to send it)."""
+
+    def __init__(self, token):
+        self._header = ("authorization", f"Bearer {token}")
+
+    def _with_token(self, details):
+        return _CallDetails(details.method, details.timeout,
+                            list(details.metadata or []) + [self._header],
+                            details.credentials, details.wait_for_ready,
+                            getattr(details, "compression", None))
+
+    def intercept_unary_unary(self, continuation, details, request):
+        return continuation(self._with_token(details), request)
+
+    def intercept_stream_unary(self, continuation, details, request_iterator):
+        return continuation(self._with_token(details), request_iterator)
+
+
+class _CallDetails(
+        collections.namedtuple("_CallDetails", ("method", "timeout", "metadata",
+                                                "credentials", "wait_for_ready",
+                                                "compression")),
+        grpc.ClientCallDetails):
+    pass
+
+
 class Client:
     """A connection to excite-server. Thread-safe; close it (or use ``with``)."""
 
     def __init__(self, target="127.0.0.1:50051", *, timeout_s=30.0, plan_timeout_s=60.0,
-                 max_message_mb=64):
+                 max_message_mb=64, tls_ca=None, tls_client_cert=None, tls_client_key=None,
+                 auth_token=None):
         """`target` is "host:port". Every call gets `timeout_s` as its deadline,
-        PlanInputs `plan_timeout_s` (solves can take a while)."""
+        PlanInputs `plan_timeout_s` (solves can take a while).
+
+        Security, as the C++ clients' flags: `tls_ca` (path of the PEM CA bundle that
+        signed the server's certificate) turns TLS on; `tls_client_cert` and
+        `tls_client_key` (paths, both or neither) add mutual TLS; `auth_token` is
+        sent as "authorization: Bearer <token>" on every call (default: the
+        EXCITE_AUTH_TOKEN environment variable; "" sends none)."""
         size = max_message_mb * 1024 * 1024
         self.target = target
-        self.channel = grpc.insecure_channel(
-            target,
-            options=[
-                ("grpc.max_receive_message_length", size),
-                ("grpc.max_send_message_length", size),
-            ],
-        )
+        options = [
+            ("grpc.max_receive_message_length", size),
+            ("grpc.max_send_message_length", size),
+        ]
+        if (tls_client_cert is None) != (tls_client_key is None):
+            raise ValueError("tls_client_cert and tls_client_key go together")
+        if tls_client_cert is not None and tls_ca is None:
+            raise ValueError("tls_client_cert needs tls_ca (mutual TLS runs over TLS)")
+        if tls_ca is None:
+            channel = grpc.insecure_channel(target, options=options)
+        else:
+            read = lambda path: pathlib.Path(path).read_bytes()  # noqa: E731
+            credentials = grpc.ssl_channel_credentials(
+                root_certificates=read(tls_ca),
+                private_key=read(tls_client_key) if tls_client_key else None,
+                certificate_chain=read(tls_client_cert) if tls_client_cert else None)
+            channel = grpc.secure_channel(target, credentials, options=options)
+        if auth_token is None:
+            auth_token = os.environ.get("EXCITE_AUTH_TOKEN", "")
+        self._raw_channel = channel
+        self.channel = (grpc.intercept_channel(channel, _BearerToken(auth_token))
+                        if auth_token else channel)
         self.stub = pb_grpc.ExplorationServiceStub(self.channel)
         self.timeout_s = timeout_s
         self.plan_timeout_s = plan_timeout_s
@@ -163,7 +215,7 @@ class Client:
         self._health_check = self.channel.unary_unary("/grpc.health.v1.Health/Check")
 
     def close(self):
-        self.channel.close()
+        self._raw_channel.close()
 
     def __enter__(self):
         return self
@@ -174,7 +226,7 @@ class Client:
     def wait_for_ready(self, timeout_s=10.0):
         """Blocks until the channel is connected; ``grpc.FutureTimeoutError`` if not
         within `timeout_s`."""
-        grpc.channel_ready_future(self.channel).result(timeout=timeout_s)
+        grpc.channel_ready_future(self._raw_channel).result(timeout=timeout_s)
 
     def health(self, service=""):
         """The grpc.health.v1 status name ("SERVING", "NOT_SERVING", ...)."""
