@@ -6,6 +6,12 @@
 //   excite sessions delete NAME
 //   excite predict --session NAME --z 'x1,..,u1,..[,x1,..]' [--include_noise]
 //   excite plan --session NAME --state 'x1,x2,..'
+//   excite export NAME FILE
+//   excite import FILE [--session_id ID]
+//
+// export writes the session (config, samples, last hyperparameters) to FILE as a
+// binary SessionArchive; import creates a session from such a file (under its
+// exported id unless --session_id is given).
 //
 // NAME is "sessions/{id}" or just the id. Exit status: 0 on success, 1 when the
 // server returns an error (printed with its gRPC code name), 2 on a usage error.
@@ -38,7 +44,11 @@ ABSL_FLAG(std::string, z, "", "predict: comma-separated z = (x, u) points, row-m
 ABSL_FLAG(bool, include_noise, false, "predict: add the noise variance.");
 ABSL_FLAG(std::string, state, "", "plan: comma-separated current state.");
 ABSL_FLAG(int, page_size, 0, "sessions list: page size (0: server default).");
+ABSL_FLAG(std::string, session_id, "",
+          "import: id of the new session (default: the exported session's id).");
 ABSL_FLAG(int, timeout_s, 60, "Deadline of each call in seconds.");
+ABSL_FLAG(int, max_message_mb, 64,
+          "Largest message sent or received, in MiB (export/import of big sessions).");
 
 namespace {
 
@@ -50,6 +60,8 @@ constexpr char kUsage[] =
     "  sessions delete NAME\n"
     "  predict --session NAME --z 'v1,v2,...' [--include_noise]\n"
     "  plan --session NAME --state 'x1,x2,...'\n"
+    "  export NAME FILE\n"
+    "  import FILE [--session_id ID]\n"
     "NAME is sessions/{id} or {id}.";
 
 int UsageError(const std::string& message) {
@@ -209,6 +221,33 @@ int Plan(excite::client::ExciteClient& client) {
   return 0;
 }
 
+int Export(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
+  if (args.size() != 3) return UsageError("export NAME FILE");
+  const std::string name = FullName(args[1]);
+  absl::StatusOr<excite::v1::SessionArchive> archive = client.ExportSession(name);
+  if (!archive.ok()) return Fail(archive.status());
+  if (absl::Status s = excite::client::WriteSessionArchiveFile(args[2], *archive);
+      !s.ok()) {
+    return Fail(s);
+  }
+  std::printf("exported %s (%d samples, %d hyperparameter sets) to %s\n", name.c_str(),
+              archive->samples_size(), archive->hyperparameters_size(), args[2].c_str());
+  return 0;
+}
+
+int Import(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
+  if (args.size() != 2) return UsageError("import FILE [--session_id ID]");
+  absl::StatusOr<excite::v1::SessionArchive> archive =
+      excite::client::ReadSessionArchiveFile(args[1]);
+  if (!archive.ok()) return Fail(archive.status());
+  absl::StatusOr<excite::v1::Session> session =
+      client.ImportSession(*archive, absl::GetFlag(FLAGS_session_id));
+  if (!session.ok()) return Fail(session.status());
+  std::printf("imported %s (%lld samples) from %s\n", session->name().c_str(),
+              static_cast<long long>(session->sample_count()), args[1].c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -222,6 +261,10 @@ int main(int argc, char** argv) {
   if (timeout_s < 1) return UsageError("--timeout_s must be >= 1");
   options.default_deadline = std::chrono::seconds(timeout_s);
   options.plan_deadline = std::chrono::seconds(timeout_s);
+  options.max_message_mb = absl::GetFlag(FLAGS_max_message_mb);
+  if (options.max_message_mb < 1 || options.max_message_mb > 2047) {
+    return UsageError("--max_message_mb must be in [1, 2047]");
+  }
   if (absl::Status s = excite::client::ApplyConnectionFlags(&options); !s.ok()) {
     return UsageError(std::string(s.message()));
   }
@@ -230,6 +273,8 @@ int main(int argc, char** argv) {
 
   const std::string& command = args[0];
   if (command == "sessions") return Sessions(*client, args);
+  if (command == "export") return Export(*client, args);
+  if (command == "import") return Import(*client, args);
   if (args.size() != 1) return UsageError(absl::StrCat(command, " takes no argument"));
   if (command == "predict") return Predict(*client);
   if (command == "plan") return Plan(*client);

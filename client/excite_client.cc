@@ -1,11 +1,14 @@
 #include "client/excite_client.h"
 
+#include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <utility>
 
 #include "absl/status/status.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
 #include "grpcpp/create_channel.h"
@@ -13,6 +16,16 @@
 
 namespace excite::client {
 namespace {
+
+// gRPC's own message-size check (RESOURCE_EXHAUSTED "... larger than max ...")
+// with `hint` appended; any other status as it is.
+absl::Status WithSizeHint(const absl::Status& status, absl::string_view hint) {
+  if (!absl::IsResourceExhausted(status) ||
+      !absl::StrContains(status.message(), "larger than max")) {
+    return status;
+  }
+  return absl::Status(status.code(), absl::StrCat(status.message(), " (", hint, ")"));
+}
 
 absl::Status FromGrpc(const grpc::Status& status) {
   if (status.ok()) return absl::OkStatus();
@@ -75,9 +88,11 @@ ExciteClient::ExciteClient(std::shared_ptr<grpc::Channel> channel, ClientOptions
 std::shared_ptr<grpc::Channel> CreateChannel(const std::string& target,
                                              const ClientOptions& options) {
   grpc::ChannelArguments args;
-  // Match the server's default message cap (64 MiB) for large Predict batches.
-  args.SetMaxReceiveMessageSize(64 * 1024 * 1024);
-  args.SetMaxSendMessageSize(64 * 1024 * 1024);
+  // Match the server's message cap (default 64 MiB) for large Predict batches
+  // and session archives.
+  const int max_bytes = std::clamp(options.max_message_mb, 1, 2047) * 1024 * 1024;
+  args.SetMaxReceiveMessageSize(max_bytes);
+  args.SetMaxSendMessageSize(max_bytes);
   std::shared_ptr<grpc::ChannelCredentials> credentials = MakeCredentials(options);
   // Unreadable TLS files: a channel that never connects (calls: UNAVAILABLE).
   return credentials != nullptr ? grpc::CreateCustomChannel(target, credentials, args)
@@ -196,6 +211,83 @@ absl::StatusOr<v1::PlanInputsResponse> ExciteClient::PlanInputs(
     return s;
   }
   return response;
+}
+
+template <typename Request, typename Response>
+absl::StatusOr<Response> ExciteClient::Unary(
+    grpc::Status (v1::ExplorationService::Stub::*method)(grpc::ClientContext*,
+                                                         const Request&, Response*),
+    const Request& request) {
+  grpc::ClientContext context;
+  Prepare(&context, options_.default_deadline);
+  Response response;
+  if (absl::Status s = FromGrpc((stub_.get()->*method)(&context, request, &response));
+      !s.ok()) {
+    return s;
+  }
+  return response;
+}
+
+absl::StatusOr<v1::SessionArchive> ExciteClient::ExportSession(const std::string& name) {
+  v1::ExportSessionRequest request;
+  request.set_name(name);
+  absl::StatusOr<v1::SessionArchive> archive =
+      Unary(&v1::ExplorationService::Stub::ExportSession, request);
+  if (!archive.ok()) {
+    return WithSizeHint(archive.status(),
+                        absl::StrCat("the archive is larger than this client's message "
+                                     "limit of ",
+                                     options_.max_message_mb, " MiB (--max_message_mb)"));
+  }
+  return archive;
+}
+
+absl::StatusOr<v1::Session> ExciteClient::ImportSession(const v1::SessionArchive& archive,
+                                                        const std::string& session_id) {
+  v1::ImportSessionRequest request;
+  *request.mutable_archive() = archive;
+  request.set_session_id(session_id);
+  absl::StatusOr<v1::Session> session =
+      Unary(&v1::ExplorationService::Stub::ImportSession, request);
+  if (!session.ok()) {
+    return WithSizeHint(
+        session.status(),
+        absl::StrCat("the archive (", request.ByteSizeLong(),
+                     " bytes) is larger than the message limit of the server (its "
+                     "--max_message_mb) or of this client (",
+                     options_.max_message_mb, " MiB, --max_message_mb): raise it"));
+  }
+  return session;
+}
+
+absl::Status WriteSessionArchiveFile(const std::string& path,
+                                     const v1::SessionArchive& archive) {
+  const std::string tmp = absl::StrCat(path, ".tmp");
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out || !archive.SerializeToOstream(&out) || !out.flush()) {
+      std::remove(tmp.c_str());
+      return absl::UnavailableError(absl::StrCat("cannot write ", tmp));
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    return absl::UnavailableError(absl::StrCat("cannot rename ", tmp, " to ", path));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<v1::SessionArchive> ReadSessionArchiveFile(const std::string& path) {
+  std::string bytes;
+  if (!ReadFile(path, &bytes)) {
+    return absl::InvalidArgumentError(absl::StrCat("cannot read ", path));
+  }
+  v1::SessionArchive archive;
+  if (!archive.ParseFromString(bytes) || archive.format_version() == 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, " is not a session archive (a file written by excite export)"));
+  }
+  return archive;
 }
 
 }  // namespace excite::client

@@ -23,6 +23,10 @@ struct ClientOptions {
   std::string tls_key_file;
   // Sent as "authorization: Bearer <auth_token>" on every call if non-empty.
   std::string auth_token;
+  // Largest message this client sends or receives, in MiB (the server's default
+  // --max_message_mb). ExportSession / ImportSession of a big session may need
+  // more here and on the server.
+  int max_message_mb = 64;
 };
 
 // Reads the client's auth token: the file `token_file` if non-empty (whitespace
@@ -31,9 +35,9 @@ struct ClientOptions {
 absl::StatusOr<std::string> LoadAuthToken(const std::string& token_file);
 
 // A channel to `target` ("host:port") with the TLS settings of `options` and
-// message caps of 64 MiB (the server's default). Plaintext unless
-// options.tls_ca_file is set; a TLS file that cannot be read gives a channel on
-// which every call fails with UNAVAILABLE.
+// message caps of options.max_message_mb (default 64 MiB, the server's).
+// Plaintext unless options.tls_ca_file is set; a TLS file that cannot be read
+// gives a channel on which every call fails with UNAVAILABLE.
 std::shared_ptr<grpc::Channel> CreateChannel(const std::string& target,
                                              const ClientOptions& options);
 
@@ -60,15 +64,36 @@ class ExciteClient {
   absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request);
   absl::StatusOr<v1::PlanInputsResponse> PlanInputs(const std::string& session,
                                                     const std::vector<double>& state);
+  // The session "sessions/{id}" as a self-contained archive (see
+  // WriteSessionArchiveFile).
+  absl::StatusOr<v1::SessionArchive> ExportSession(const std::string& name);
+  // A new session from `archive`, under `session_id` if non-empty (else the
+  // archive's id). A RESOURCE_EXHAUSTED from a message-size limit says which
+  // limit to raise.
+  absl::StatusOr<v1::Session> ImportSession(const v1::SessionArchive& archive,
+                                            const std::string& session_id = "");
 
  private:
   ExciteClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options);
   // Deadline and the authorization metadata.
   void Prepare(grpc::ClientContext* context, std::chrono::milliseconds timeout) const;
+  // One unary call of `method` with the default deadline.
+  template <typename Request, typename Response>
+  absl::StatusOr<Response> Unary(grpc::Status (v1::ExplorationService::Stub::*method)(
+                                     grpc::ClientContext*, const Request&, Response*),
+                                 const Request& request);
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::ExplorationService::Stub> stub_;
   ClientOptions options_;
 };
+
+// The file format of `excite export` / `excite import`: the binary serialized
+// SessionArchive, nothing around it. Write replaces `path` atomically (a
+// temporary file in the same directory, renamed). Read: INVALID_ARGUMENT if the
+// file is not an archive (does not parse, or has no format_version).
+absl::Status WriteSessionArchiveFile(const std::string& path,
+                                     const v1::SessionArchive& archive);
+absl::StatusOr<v1::SessionArchive> ReadSessionArchiveFile(const std::string& path);
 
 }  // namespace excite::client
 

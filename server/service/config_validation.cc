@@ -82,27 +82,8 @@ absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& con
                        ") entries when kernel.fit is false, got ", kernel->fixed_size()));
     }
     for (int i = 0; i < kernel->fixed_size(); ++i) {
-      const v1::Hyperparameters& h = kernel->fixed(i);
-      const std::string hpath = Indexed(kpath, "fixed", i);
-      if (absl::Status s =
-              CheckPositive(Field(hpath, "signal_variance"), h.signal_variance());
-          !s.ok()) {
-        return s;
-      }
-      if (h.lengthscales_size() != z_dim) {
-        return Invalid(Field(hpath, "lengthscales"),
-                       absl::StrCat("must have state_dim + input_dim (", z_dim,
-                                    ") entries, got ", h.lengthscales_size()));
-      }
-      for (int l = 0; l < h.lengthscales_size(); ++l) {
-        if (absl::Status s =
-                CheckPositive(Indexed(hpath, "lengthscales", l), h.lengthscales(l));
-            !s.ok()) {
-          return s;
-        }
-      }
-      if (absl::Status s =
-              CheckPositive(Field(hpath, "noise_variance"), h.noise_variance());
+      if (absl::Status s = ValidateHyperparameters(Indexed(kpath, "fixed", i),
+                                                   kernel->fixed(i), z_dim);
           !s.ok()) {
         return s;
       }
@@ -290,6 +271,29 @@ absl::Status ValidateSep(absl::string_view path, v1::SessionConfig* config) {
 }
 
 }  // namespace
+
+absl::Status ValidateHyperparameters(absl::string_view path,
+                                     const v1::Hyperparameters& hyperparameters,
+                                     int z_dim) {
+  const v1::Hyperparameters& h = hyperparameters;
+  if (absl::Status s = CheckPositive(Field(path, "signal_variance"), h.signal_variance());
+      !s.ok()) {
+    return s;
+  }
+  if (h.lengthscales_size() != z_dim) {
+    return Invalid(Field(path, "lengthscales"),
+                   absl::StrCat("must have state_dim + input_dim (", z_dim,
+                                ") entries, got ", h.lengthscales_size()));
+  }
+  for (int l = 0; l < h.lengthscales_size(); ++l) {
+    if (absl::Status s =
+            CheckPositive(Indexed(path, "lengthscales", l), h.lengthscales(l));
+        !s.ok()) {
+      return s;
+    }
+  }
+  return CheckPositive(Field(path, "noise_variance"), h.noise_variance());
+}
 
 absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view path) {
   if (config->state_dim() < 1 || config->state_dim() > kMaxStateDim) {

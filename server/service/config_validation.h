@@ -59,6 +59,14 @@ inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
 absl::Status ValidateSessionConfig(v1::SessionConfig* config,
                                    absl::string_view path = "config");
 
+// One output's hyperparameters in data units (kernel.fixed[i], or the saved ones
+// of a SessionArchive): signal_variance > 0, `z_dim` (state_dim + input_dim)
+// lengthscales > 0 and noise_variance > 0, all finite. INVALID_ARGUMENT naming
+// the field under `path`, e.g. "config.kernel.fixed[1].lengthscales[2]".
+absl::Status ValidateHyperparameters(absl::string_view path,
+                                     const v1::Hyperparameters& hyperparameters,
+                                     int z_dim);
+
 // Convenience: a validated copy with defaults filled.
 absl::StatusOr<v1::SessionConfig> ValidatedSessionConfig(
     const v1::SessionConfig& config, absl::string_view path = "config");

@@ -53,8 +53,10 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
       server->store_.get(), options.limits.max_sessions, server->metrics_.get());
   if (!registry.ok()) return registry.status();
   server->registry_ = *std::move(registry);
+  ServiceLimits limits = options.limits;
+  limits.max_message_bytes = int64_t{options.max_message_mb} * 1024 * 1024;
   server->service_ =
-      std::make_unique<ExplorationService>(server->registry_.get(), options.limits);
+      std::make_unique<ExplorationService>(server->registry_.get(), limits);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();

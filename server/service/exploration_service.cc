@@ -8,12 +8,14 @@
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "server/service/config_validation.h"
 #include "server/service/field_violation.h"
 #include "server/service/grpc_status.h"
 #include "server/service/logging.h"
 #include "server/service/request_validation.h"
 #include "server/service/resource_name.h"
+#include "server/service/session_archive.h"
 
 namespace excite::service {
 namespace {
@@ -98,6 +100,21 @@ grpc::Status ExplorationService::RunRpc(absl::string_view method,
   return ToGrpcStatus(status);
 }
 
+absl::StatusOr<std::shared_ptr<Session>> ExplorationService::FindSession(
+    const std::string& name, absl::string_view field) const {
+  absl::StatusOr<std::string> id = ParseSessionName(name, field);
+  if (!id.ok()) return id.status();
+  return registry_->Get(*id);
+}
+
+absl::Status ExplorationService::CheckHorizonCap(const v1::SessionConfig& validated,
+                                                 absl::string_view field) const {
+  if (validated.horizon() <= limits_.max_horizon) return absl::OkStatus();
+  return absl::ResourceExhaustedError(
+      absl::StrCat(field, ": ", validated.horizon(), " exceeds this server's cap of ",
+                   limits_.max_horizon, " (--max_horizon)"));
+}
+
 grpc::Status ExplorationService::CreateSession(grpc::ServerContext* /*context*/,
                                                const v1::CreateSessionRequest* request,
                                                v1::Session* response) {
@@ -106,10 +123,10 @@ grpc::Status ExplorationService::CreateSession(grpc::ServerContext* /*context*/,
     // config is reported by Create below).
     if (absl::StatusOr<v1::SessionConfig> validated =
             ValidatedSessionConfig(request->config(), "config");
-        validated.ok() && validated->horizon() > limits_.max_horizon) {
-      return absl::ResourceExhaustedError(absl::StrCat(
-          "config.horizon: ", validated->horizon(), " exceeds this server's cap of ",
-          limits_.max_horizon, " (--max_horizon)"));
+        validated.ok()) {
+      if (absl::Status s = CheckHorizonCap(*validated, "config.horizon"); !s.ok()) {
+        return s;
+      }
     }
     absl::StatusOr<std::shared_ptr<Session>> session =
         registry_->Create(request->session_id(), request->config());
@@ -124,9 +141,8 @@ grpc::Status ExplorationService::GetSession(grpc::ServerContext* /*context*/,
                                             const v1::GetSessionRequest* request,
                                             v1::Session* response) {
   return RunRpc("GetSession", request->name(), [&]() -> absl::Status {
-    absl::StatusOr<std::string> id = ParseSessionName(request->name(), "name");
-    if (!id.ok()) return id.status();
-    absl::StatusOr<std::shared_ptr<Session>> session = registry_->Get(*id);
+    absl::StatusOr<std::shared_ptr<Session>> session =
+        FindSession(request->name(), "name");
     if (!session.ok()) return session.status();
     *response = (*session)->Describe();
     return absl::OkStatus();
@@ -220,9 +236,8 @@ grpc::Status ExplorationService::Predict(grpc::ServerContext* context,
                                          const v1::PredictRequest* request,
                                          v1::PredictResponse* response) {
   return RunRpc("Predict", request->session(), [&]() -> absl::Status {
-    absl::StatusOr<std::string> id = ParseSessionName(request->session(), "session");
-    if (!id.ok()) return id.status();
-    absl::StatusOr<std::shared_ptr<Session>> session = registry_->Get(*id);
+    absl::StatusOr<std::shared_ptr<Session>> session =
+        FindSession(request->session(), "session");
     if (!session.ok()) return session.status();
     if (absl::Status s = ValidatePredictInputs((*session)->config(), request->inputs(),
                                                limits_.max_predict_points);
@@ -242,9 +257,8 @@ grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
                                             const v1::PlanInputsRequest* request,
                                             v1::PlanInputsResponse* response) {
   return RunRpc("PlanInputs", request->session(), [&]() -> absl::Status {
-    absl::StatusOr<std::string> id = ParseSessionName(request->session(), "session");
-    if (!id.ok()) return id.status();
-    absl::StatusOr<std::shared_ptr<Session>> session = registry_->Get(*id);
+    absl::StatusOr<std::shared_ptr<Session>> session =
+        FindSession(request->session(), "session");
     if (!session.ok()) return session.status();
     if (absl::Status s = ValidatePlanState((*session)->config(), request->state());
         !s.ok()) {
@@ -259,6 +273,66 @@ grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
       return absl::CancelledError("PlanInputs was cancelled by the client");
     }
     *response = *std::move(plan);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::ExportSession(grpc::ServerContext* /*context*/,
+                                               const v1::ExportSessionRequest* request,
+                                               v1::SessionArchive* response) {
+  return RunRpc("ExportSession", request->name(), [&]() -> absl::Status {
+    absl::StatusOr<std::shared_ptr<Session>> session =
+        FindSession(request->name(), "name");
+    if (!session.ok()) return session.status();
+    absl::StatusOr<v1::SessionArchive> archive = (*session)->Export();
+    if (!archive.ok()) return archive.status();
+    const size_t bytes = archive->ByteSizeLong();
+    if (bytes > static_cast<size_t>(limits_.max_message_bytes)) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "the archive of ", request->name(), " (", archive->samples_size(),
+          " samples) is ", bytes, " bytes, more than this server's message limit of ",
+          limits_.max_message_bytes,
+          " bytes: restart excite-server with a larger --max_message_mb to export it"));
+    }
+    *response = *std::move(archive);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::ImportSession(grpc::ServerContext* /*context*/,
+                                               const v1::ImportSessionRequest* request,
+                                               v1::Session* response) {
+  const std::string& id_for_log = request->session_id().empty()
+                                      ? request->archive().session_id()
+                                      : request->session_id();
+  return RunRpc("ImportSession", id_for_log, [&]() -> absl::Status {
+    if (absl::Status s = CheckOptionalSessionId(request->session_id(), "session_id");
+        !s.ok()) {
+      return s;
+    }
+    absl::StatusOr<v1::SessionConfig> config =
+        ValidateSessionArchive(request->archive(), "archive");
+    if (!config.ok()) return config.status();
+    if (absl::Status s = CheckHorizonCap(*config, "archive.config.horizon"); !s.ok()) {
+      return s;
+    }
+    if (request->archive().samples_size() > limits_.max_samples_per_session) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "archive.samples: ", request->archive().samples_size(),
+          " samples exceed this server's cap of ", limits_.max_samples_per_session,
+          " per session (--max_samples_per_session)"));
+    }
+    ArchiveRecords records =
+        ArchiveToStore(request->archive(), *config, absl::ToUnixMillis(absl::Now()));
+    const std::string& id = request->session_id().empty()
+                                ? request->archive().session_id()
+                                : request->session_id();
+    absl::StatusOr<std::shared_ptr<Session>> session =
+        registry_->Import(id, std::move(records.record), records.samples);
+    if (!session.ok()) return session.status();
+    *response = (*session)->Describe();
+    Log(LogLevel::kInfo, absl::StrCat("imported ", (*session)->name(), " with ",
+                                      records.samples.size(), " samples"));
     return absl::OkStatus();
   });
 }

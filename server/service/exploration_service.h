@@ -2,9 +2,13 @@
 #define EXCITE_SERVER_SERVICE_EXPLORATION_SERVICE_H_
 
 #include <cstdint>
+#include <memory>
+#include <string>
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "excite/v1/exploration_service.grpc.pb.h"
@@ -21,6 +25,9 @@ struct ServiceLimits {
   // Largest SessionConfig.horizon (after defaults) a new session may have;
   // config validation allows up to kMaxHorizon.
   int32_t max_horizon = 200;
+  // Largest message sent or received (ServerOptions.max_message_mb, set by
+  // ExciteServer): an ExportSession archive beyond it is RESOURCE_EXHAUSTED.
+  int64_t max_message_bytes = int64_t{64} * 1024 * 1024;
 };
 
 // The synchronous gRPC service: translates requests into session calls and
@@ -55,6 +62,12 @@ class ExplorationService final : public v1::ExplorationService::Service {
   grpc::Status PlanInputs(grpc::ServerContext* context,
                           const v1::PlanInputsRequest* request,
                           v1::PlanInputsResponse* response) override;
+  grpc::Status ExportSession(grpc::ServerContext* context,
+                             const v1::ExportSessionRequest* request,
+                             v1::SessionArchive* response) override;
+  grpc::Status ImportSession(grpc::ServerContext* context,
+                             const v1::ImportSessionRequest* request,
+                             v1::Session* response) override;
 
   // New RPCs get UNAVAILABLE from now on.
   void StartDraining();
@@ -66,6 +79,14 @@ class ExplorationService final : public v1::ExplorationService::Service {
   // anything thrown, logs one debug line, converts the status.
   template <typename Body>
   grpc::Status RunRpc(absl::string_view method, const std::string& session, Body&& body);
+  // The session named `name` ("sessions/{id}"; INVALID_ARGUMENT naming `field`
+  // if malformed, NOT_FOUND if unknown).
+  absl::StatusOr<std::shared_ptr<Session>> FindSession(const std::string& name,
+                                                       absl::string_view field) const;
+  // RESOURCE_EXHAUSTED naming `field` if a validated config's horizon exceeds
+  // limits_.max_horizon.
+  absl::Status CheckHorizonCap(const v1::SessionConfig& validated,
+                               absl::string_view field) const;
 
   absl::Mutex mu_;
   bool draining_ ABSL_GUARDED_BY(mu_) = false;

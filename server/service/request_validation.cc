@@ -31,12 +31,13 @@ absl::Status CheckVector(absl::string_view field,
 
 absl::Status ValidateTransitions(
     const v1::SessionConfig& config,
-    const google::protobuf::RepeatedPtrField<v1::Transition>& transitions) {
+    const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
+    absl::string_view field) {
   absl::flat_hash_map<int64_t, int> first_index;
   first_index.reserve(transitions.size());
   for (int i = 0; i < transitions.size(); ++i) {
     const v1::Transition& t = transitions[i];
-    const std::string path = absl::StrCat("transitions[", i, "]");
+    const std::string path = absl::StrCat(field, "[", i, "]");
     if (absl::Status s = CheckVector(absl::StrCat(path, ".state"), t.state(),
                                      config.state_dim(), "state_dim");
         !s.ok()) {
@@ -64,8 +65,8 @@ absl::Status ValidateTransitions(
     if (!inserted) {
       return FieldViolationError(
           absl::StrCat(path, ".sequence"),
-          absl::StrCat(t.sequence(), " appears twice in one message (also in ",
-                       "transitions[", it->second, "])"));
+          absl::StrCat(t.sequence(), " appears twice in one message (also in ", field,
+                       "[", it->second, "])"));
     }
   }
   return absl::OkStatus();

@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "absl/status/status.h"
+#include "absl/strings/string_view.h"
 #include "excite/v1/exploration_service.pb.h"
 #include "excite/v1/session_config.pb.h"
 #include "google/protobuf/repeated_field.h"
@@ -13,10 +14,12 @@ namespace excite::service {
 // Checks one AddData message's transitions against a (validated) session config:
 // state/next_state of state_dim and input of input_dim numbers, all finite;
 // sequence >= 0; finite timestamp_s; no sequence number twice in the message.
-// INVALID_ARGUMENT naming the field, e.g. "transitions[3].state[1]: ...".
+// INVALID_ARGUMENT naming the field under `field`, e.g.
+// "transitions[3].state[1]: ..." (a SessionArchive's samples: "archive.samples").
 absl::Status ValidateTransitions(
     const v1::SessionConfig& config,
-    const google::protobuf::RepeatedPtrField<v1::Transition>& transitions);
+    const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
+    absl::string_view field = "transitions");
 
 // Checks a Predict batch: non-empty, a multiple of state_dim + input_dim numbers,
 // all finite (INVALID_ARGUMENT naming "inputs"); at most `max_points` points

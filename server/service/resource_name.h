@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 
@@ -10,6 +11,10 @@ namespace excite::service {
 
 // True for a valid session id: 1 to 63 characters of [a-z0-9-].
 bool IsValidSessionId(absl::string_view id);
+
+// OK if `id` is empty (the server picks one) or a valid id; otherwise
+// INVALID_ARGUMENT naming `field`.
+absl::Status CheckOptionalSessionId(absl::string_view id, absl::string_view field);
 
 // "sessions/{id}".
 std::string SessionName(absl::string_view id);

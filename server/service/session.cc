@@ -7,7 +7,9 @@
 #include "absl/strings/str_cat.h"
 #include "server/service/logging.h"
 #include "server/service/resource_name.h"
+#include "server/service/session_archive.h"
 #include "server/service/session_options.h"
+#include "server/service/store_conversion.h"
 
 namespace excite::service {
 namespace {
@@ -54,14 +56,14 @@ absl::Status InternalFromException(absl::string_view what, const std::exception&
 // nothing if they are absent or unusable for `config`.
 std::optional<std::vector<gp::Hyperparameters>> ParseSavedHyperparameters(
     const std::string& bytes, const v1::SessionConfig& config) {
-  if (bytes.empty()) return std::nullopt;
-  v1::Session saved;
-  if (!saved.ParseFromString(bytes) || saved.outputs_size() != config.state_dim()) {
+  std::optional<std::vector<v1::Hyperparameters>> saved =
+      DecodeSavedHyperparameters(bytes);
+  if (!saved.has_value() || saved->empty() ||
+      static_cast<int>(saved->size()) != config.state_dim()) {
     return std::nullopt;
   }
   std::vector<gp::Hyperparameters> result;
-  for (const v1::OutputModel& output : saved.outputs()) {
-    const v1::Hyperparameters& h = output.hyperparameters();
+  for (const v1::Hyperparameters& h : *saved) {
     if (h.lengthscales_size() != config.state_dim() + config.input_dim()) {
       return std::nullopt;
     }
@@ -220,15 +222,7 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
   const int du = config_.input_dim();
   std::vector<store::SampleRecord> batch;
   batch.reserve(static_cast<size_t>(transitions.size()));
-  for (const v1::Transition& t : transitions) {
-    store::SampleRecord record;
-    record.sequence = t.sequence();
-    record.state.assign(t.state().begin(), t.state().end());
-    record.input.assign(t.input().begin(), t.input().end());
-    record.next_state.assign(t.next_state().begin(), t.next_state().end());
-    record.timestamp_s = t.timestamp_s();
-    batch.push_back(std::move(record));
-  }
+  for (const v1::Transition& t : transitions) batch.push_back(ToSampleRecord(t));
 
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
@@ -455,6 +449,19 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
   response.set_wall_time_ms(summary.wall_time_ms);
   response.set_model_version(model_version_);
   return response;
+}
+
+absl::StatusOr<v1::SessionArchive> Session::Export() {
+  absl::MutexLock lock(&mu_);
+  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  absl::StatusOr<store::SessionRecord> record = store_->LoadSession(id_);
+  if (!record.ok()) {
+    if (absl::IsNotFound(record.status())) return NotDeleted(name_);
+    return record.status();
+  }
+  absl::StatusOr<std::vector<store::SampleRecord>> samples = store_->LoadSamples(id_);
+  if (!samples.ok()) return samples.status();
+  return ArchiveFromStore(*record, *samples);
 }
 
 absl::Status Session::Delete() {

@@ -99,6 +99,12 @@ class Session {
                                                     Clock::time_point deadline,
                                                     std::function<bool()> cancelled);
 
+  // The session as a SessionArchive: config, every sample in sequence order and
+  // the saved hyperparameters, read from the store (so exactly what a restart
+  // would restore) while no other call changes the session. NOT_FOUND if
+  // deleted. Cost: O(samples) reads.
+  absl::StatusOr<v1::SessionArchive> Export();
+
   // Marks the session deleted (later calls on it return NOT_FOUND) and removes it
   // and its samples from the store. NOT_FOUND if already deleted.
   absl::Status Delete();

@@ -6,7 +6,6 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "server/service/config_validation.h"
-#include "server/service/field_violation.h"
 #include "server/service/logging.h"
 #include "server/service/resource_name.h"
 
@@ -76,16 +75,30 @@ std::string SessionRegistry::GenerateId() {
 
 absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Create(
     const std::string& session_id, const v1::SessionConfig& config) {
-  if (!session_id.empty() && !IsValidSessionId(session_id)) {
-    return FieldViolationError(
-        "session_id", absl::StrCat("\"", absl::CHexEscape(session_id.substr(0, 100)),
-                                   "\" must be 1 to 63 characters [a-z0-9-]"));
+  if (absl::Status s = CheckOptionalSessionId(session_id, "session_id"); !s.ok()) {
+    return s;
   }
   absl::StatusOr<v1::SessionConfig> validated = ValidatedSessionConfig(config, "config");
   if (!validated.ok()) return validated.status();
 
   absl::MutexLock lock(&mu_);
-  const std::string id = session_id.empty() ? GenerateId() : session_id;
+  absl::StatusOr<std::string> id = NewSessionId(session_id);
+  if (!id.ok()) return id.status();
+  absl::StatusOr<std::shared_ptr<Session>> session =
+      Session::Create(*id, *validated, store_);
+  if (!session.ok()) return session.status();
+  store::SessionRecord record;
+  record.id = *id;
+  record.config = validated->SerializeAsString();
+  record.created_unix_ms = absl::ToUnixMillis(absl::Now());
+  if (absl::Status s = store_->CreateSession(record); !s.ok()) return s;
+  (*session)->AttachMetrics(metrics_);
+  sessions_.emplace(*id, *session);
+  return session;
+}
+
+absl::StatusOr<std::string> SessionRegistry::NewSessionId(const std::string& session_id) {
+  std::string id = session_id.empty() ? GenerateId() : session_id;
   if (sessions_.count(id) > 0) {
     return absl::AlreadyExistsError(
         absl::StrCat("session ", SessionName(id), " already exists"));
@@ -94,16 +107,25 @@ absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Create(
     return absl::ResourceExhaustedError(absl::StrCat(
         "the server holds ", sessions_.size(), " sessions, its cap: delete one first"));
   }
+  return id;
+}
+
+absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Import(
+    const std::string& session_id, store::SessionRecord record,
+    const std::vector<store::SampleRecord>& samples) {
+  absl::MutexLock lock(&mu_);
+  absl::StatusOr<std::string> id = NewSessionId(session_id);
+  if (!id.ok()) return id.status();
+  record.id = *id;
+  record.model_version = 0;
+  // Built in memory first (as after a restart: the hyperparameters seed the first
+  // refit), stored second: a failure of either leaves nothing behind.
   absl::StatusOr<std::shared_ptr<Session>> session =
-      Session::Create(id, *validated, store_);
+      Session::Restore(record, samples, store_);
   if (!session.ok()) return session.status();
-  store::SessionRecord record;
-  record.id = id;
-  record.config = validated->SerializeAsString();
-  record.created_unix_ms = absl::ToUnixMillis(absl::Now());
-  if (absl::Status s = store_->CreateSession(record); !s.ok()) return s;
+  if (absl::Status s = store_->ImportSession(record, samples); !s.ok()) return s;
   (*session)->AttachMetrics(metrics_);
-  sessions_.emplace(id, *session);
+  sessions_.emplace(*id, *session);
   return session;
 }
 

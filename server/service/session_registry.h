@@ -35,6 +35,16 @@ class SessionRegistry {
   absl::StatusOr<std::shared_ptr<Session>> Create(const std::string& session_id,
                                                   const v1::SessionConfig& config);
 
+  // Creates and stores a session with all its samples and saved hyperparameters
+  // (`record` as from a validated SessionArchive; its id and model_version are
+  // set here) in one store transaction. `session_id` empty: a fresh id. The
+  // session is built as after a restart (Session::Restore). ALREADY_EXISTS for a
+  // taken id, RESOURCE_EXHAUSTED beyond max_sessions; on any error nothing is
+  // stored or registered.
+  absl::StatusOr<std::shared_ptr<Session>> Import(
+      const std::string& session_id, store::SessionRecord record,
+      const std::vector<store::SampleRecord>& samples);
+
   // NOT_FOUND "session sessions/x not found".
   absl::StatusOr<std::shared_ptr<Session>> Get(const std::string& id) const;
 
@@ -55,6 +65,10 @@ class SessionRegistry {
  private:
   SessionRegistry(store::SqliteStore* store, int64_t max_sessions, Metrics* metrics);
   std::string GenerateId() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // `session_id`, or a generated one if empty, if it is free and the cap allows
+  // one more session (ALREADY_EXISTS, RESOURCE_EXHAUSTED otherwise).
+  absl::StatusOr<std::string> NewSessionId(const std::string& session_id)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   store::SqliteStore* const store_;
   const int64_t max_sessions_;

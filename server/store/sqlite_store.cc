@@ -37,6 +37,20 @@ CREATE TABLE samples (
 ) WITHOUT ROWID;
 )sql";
 
+// The columns of a SessionRecord, in SessionFromRow's order.
+constexpr char kSelectSessions[] =
+    "SELECT id, config, created_unix_ms, hyperparameters, model_version FROM sessions";
+
+SessionRecord SessionFromRow(const SqliteStatement& stmt) {
+  SessionRecord record;
+  record.id = stmt.ColumnText(0);
+  record.config = stmt.ColumnBlob(1);
+  record.created_unix_ms = stmt.ColumnInt64(2);
+  record.hyperparameters = stmt.ColumnBlob(3);
+  record.model_version = stmt.ColumnInt64(4);
+  return record;
+}
+
 // Holds an exclusive flock on <data_dir>/excite.lock for the store's lifetime so
 // that two servers never share one data directory.
 absl::StatusOr<int> LockDataDir(const std::filesystem::path& dir) {
@@ -142,8 +156,7 @@ absl::Status SqliteStore::Rollback() {
 }
 
 absl::Status SqliteStore::InitSchema() {
-  if (absl::Status s = Exec("BEGIN IMMEDIATE"); !s.ok()) return s;
-  absl::Status status = [&]() -> absl::Status {
+  return InTransaction([&]() -> absl::Status {
     absl::StatusOr<SqliteStatement> tables = SqliteStatement::Prepare(
         db_, "SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name");
     if (!tables.ok()) return tables.status();
@@ -203,12 +216,7 @@ absl::Status SqliteStore::InitSchema() {
                                                         kSchemaVersion, ")"));
     }
     return absl::OkStatus();
-  }();
-  if (!status.ok()) {
-    Rollback().IgnoreError();  // the original error is the one to report
-    return status;
-  }
-  return Exec("COMMIT");
+  });
 }
 
 absl::StatusOr<bool> SqliteStore::SessionExists(const std::string& id) {
@@ -219,8 +227,20 @@ absl::StatusOr<bool> SqliteStore::SessionExists(const std::string& id) {
   return stmt->Step();
 }
 
-absl::Status SqliteStore::CreateSession(const SessionRecord& session) {
-  absl::MutexLock lock(&mu_);
+absl::Status SqliteStore::InTransaction(absl::FunctionRef<absl::Status()> body) {
+  if (absl::Status s = Exec("BEGIN IMMEDIATE"); !s.ok()) return s;
+  if (absl::Status s = body(); !s.ok()) {
+    Rollback().IgnoreError();  // the original error is the one to report
+    return s;
+  }
+  if (absl::Status s = Exec("COMMIT"); !s.ok()) {
+    Rollback().IgnoreError();
+    return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SqliteStore::InsertSessionRow(const SessionRecord& session) {
   absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
       db_,
       "INSERT INTO sessions (id, config, created_unix_ms, hyperparameters, "
@@ -239,10 +259,55 @@ absl::Status SqliteStore::CreateSession(const SessionRecord& session) {
   return status;
 }
 
+absl::Status SqliteStore::InsertSampleRows(const std::string& session_id,
+                                           const std::vector<SampleRecord>& batch,
+                                           bool ignore_duplicates, InsertResult* result) {
+  absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
+      db_, ignore_duplicates
+               ? "INSERT OR IGNORE INTO samples (session_id, sequence, state, input, "
+                 "next_state, timestamp_s) VALUES (?, ?, ?, ?, ?, ?)"
+               : "INSERT INTO samples (session_id, sequence, state, input, "
+                 "next_state, timestamp_s) VALUES (?, ?, ?, ?, ?, ?)");
+  if (!stmt.ok()) return stmt.status();
+  if (result != nullptr) result->stored.reserve(batch.size());
+  for (const SampleRecord& sample : batch) {
+    if (absl::Status s = stmt->BindText(1, session_id); !s.ok()) return s;
+    if (absl::Status s = stmt->BindInt64(2, sample.sequence); !s.ok()) return s;
+    if (absl::Status s = stmt->BindDoubles(3, sample.state); !s.ok()) return s;
+    if (absl::Status s = stmt->BindDoubles(4, sample.input); !s.ok()) return s;
+    if (absl::Status s = stmt->BindDoubles(5, sample.next_state); !s.ok()) return s;
+    if (absl::Status s = stmt->BindDouble(6, sample.timestamp_s); !s.ok()) return s;
+    if (absl::Status s = stmt->Step().status(); !s.ok()) {
+      return absl::Status(s.code(), absl::StrCat("sample ", sample.sequence, " of ",
+                                                 session_id, ": ", s.message()));
+    }
+    if (result != nullptr) {
+      const bool stored = sqlite3_changes(db_) > 0;
+      result->stored.push_back(stored);
+      ++(stored ? result->stored_count : result->duplicate_count);
+    }
+    if (absl::Status s = stmt->Reset(); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SqliteStore::CreateSession(const SessionRecord& session) {
+  absl::MutexLock lock(&mu_);
+  return InsertSessionRow(session);
+}
+
+absl::Status SqliteStore::ImportSession(const SessionRecord& session,
+                                        const std::vector<SampleRecord>& samples) {
+  absl::MutexLock lock(&mu_);
+  return InTransaction([&]() -> absl::Status {
+    if (absl::Status s = InsertSessionRow(session); !s.ok()) return s;
+    return InsertSampleRows(session.id, samples, /*ignore_duplicates=*/false, nullptr);
+  });
+}
+
 absl::Status SqliteStore::DeleteSession(const std::string& id) {
   absl::MutexLock lock(&mu_);
-  if (absl::Status s = Exec("BEGIN IMMEDIATE"); !s.ok()) return s;
-  absl::Status status = [&]() -> absl::Status {
+  return InTransaction([&]() -> absl::Status {
     absl::StatusOr<SqliteStatement> samples =
         SqliteStatement::Prepare(db_, "DELETE FROM samples WHERE session_id = ?");
     if (!samples.ok()) return samples.status();
@@ -257,35 +322,36 @@ absl::Status SqliteStore::DeleteSession(const std::string& id) {
       return absl::NotFoundError(absl::StrCat("session sessions/", id, " not found"));
     }
     return absl::OkStatus();
-  }();
-  if (!status.ok()) {
-    Rollback().IgnoreError();
-    return status;
-  }
-  return Exec("COMMIT");
+  });
 }
 
 absl::StatusOr<std::vector<SessionRecord>> SqliteStore::LoadSessions() {
   absl::MutexLock lock(&mu_);
-  absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
-      db_,
-      "SELECT id, config, created_unix_ms, hyperparameters, model_version FROM "
-      "sessions ORDER BY id");
+  absl::StatusOr<SqliteStatement> stmt =
+      SqliteStatement::Prepare(db_, absl::StrCat(kSelectSessions, " ORDER BY id"));
   if (!stmt.ok()) return stmt.status();
   std::vector<SessionRecord> sessions;
   while (true) {
     absl::StatusOr<bool> row = stmt->Step();
     if (!row.ok()) return row.status();
     if (!*row) break;
-    SessionRecord record;
-    record.id = stmt->ColumnText(0);
-    record.config = stmt->ColumnBlob(1);
-    record.created_unix_ms = stmt->ColumnInt64(2);
-    record.hyperparameters = stmt->ColumnBlob(3);
-    record.model_version = stmt->ColumnInt64(4);
-    sessions.push_back(std::move(record));
+    sessions.push_back(SessionFromRow(*stmt));
   }
   return sessions;
+}
+
+absl::StatusOr<SessionRecord> SqliteStore::LoadSession(const std::string& id) {
+  absl::MutexLock lock(&mu_);
+  absl::StatusOr<SqliteStatement> stmt =
+      SqliteStatement::Prepare(db_, absl::StrCat(kSelectSessions, " WHERE id = ?"));
+  if (!stmt.ok()) return stmt.status();
+  if (absl::Status s = stmt->BindText(1, id); !s.ok()) return s;
+  absl::StatusOr<bool> row = stmt->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) {
+    return absl::NotFoundError(absl::StrCat("session sessions/", id, " not found"));
+  }
+  return SessionFromRow(*stmt);
 }
 
 absl::StatusOr<std::vector<SampleRecord>> SqliteStore::LoadSamples(
@@ -326,44 +392,17 @@ absl::StatusOr<std::vector<SampleRecord>> SqliteStore::LoadSamples(
 absl::StatusOr<InsertResult> SqliteStore::InsertSamples(
     const std::string& session_id, const std::vector<SampleRecord>& batch) {
   absl::MutexLock lock(&mu_);
-  if (absl::Status s = Exec("BEGIN IMMEDIATE"); !s.ok()) return s;
   InsertResult result;
-  absl::Status status = [&]() -> absl::Status {
+  absl::Status status = InTransaction([&]() -> absl::Status {
     absl::StatusOr<bool> exists = SessionExists(session_id);
     if (!exists.ok()) return exists.status();
     if (!*exists) {
       return absl::NotFoundError(
           absl::StrCat("session sessions/", session_id, " not found"));
     }
-    absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
-        db_,
-        "INSERT OR IGNORE INTO samples (session_id, sequence, state, input, "
-        "next_state, timestamp_s) VALUES (?, ?, ?, ?, ?, ?)");
-    if (!stmt.ok()) return stmt.status();
-    result.stored.reserve(batch.size());
-    for (const SampleRecord& sample : batch) {
-      if (absl::Status s = stmt->BindText(1, session_id); !s.ok()) return s;
-      if (absl::Status s = stmt->BindInt64(2, sample.sequence); !s.ok()) return s;
-      if (absl::Status s = stmt->BindDoubles(3, sample.state); !s.ok()) return s;
-      if (absl::Status s = stmt->BindDoubles(4, sample.input); !s.ok()) return s;
-      if (absl::Status s = stmt->BindDoubles(5, sample.next_state); !s.ok()) return s;
-      if (absl::Status s = stmt->BindDouble(6, sample.timestamp_s); !s.ok()) return s;
-      if (absl::Status s = stmt->Step().status(); !s.ok()) return s;
-      const bool stored = sqlite3_changes(db_) > 0;
-      result.stored.push_back(stored);
-      ++(stored ? result.stored_count : result.duplicate_count);
-      if (absl::Status s = stmt->Reset(); !s.ok()) return s;
-    }
-    return absl::OkStatus();
-  }();
-  if (!status.ok()) {
-    Rollback().IgnoreError();
-    return status;
-  }
-  if (absl::Status s = Exec("COMMIT"); !s.ok()) {
-    Rollback().IgnoreError();
-    return s;
-  }
+    return InsertSampleRows(session_id, batch, /*ignore_duplicates=*/true, &result);
+  });
+  if (!status.ok()) return status;
   return result;
 }
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "absl/base/thread_annotations.h"
+#include "absl/functional/function_ref.h"
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
@@ -53,6 +54,8 @@ class SqliteStore {
   absl::Status DeleteSession(const std::string& id);
   // All sessions in id order.
   absl::StatusOr<std::vector<SessionRecord>> LoadSessions();
+  // One session's record. NOT_FOUND if there is no such session.
+  absl::StatusOr<SessionRecord> LoadSession(const std::string& id);
   // All samples of one session in sequence order.
   absl::StatusOr<std::vector<SampleRecord>> LoadSamples(const std::string& session_id);
 
@@ -62,6 +65,13 @@ class SqliteStore {
   // (nothing is written then). Cost: O(batch) row inserts plus one fsync.
   absl::StatusOr<InsertResult> InsertSamples(const std::string& session_id,
                                              const std::vector<SampleRecord>& batch);
+
+  // Stores a whole session (record, including its hyperparameters and model
+  // version, and every sample) in ONE transaction: all or nothing. ALREADY_EXISTS
+  // if the id is taken; any error (e.g. two samples with one sequence number)
+  // rolls everything back. Cost: O(samples) row inserts plus one fsync.
+  absl::Status ImportSession(const SessionRecord& session,
+                             const std::vector<SampleRecord>& samples);
 
   // Saves the last fitted hyperparameters (opaque bytes) and the model version
   // they belong to. NOT_FOUND if the session does not exist.
@@ -76,6 +86,18 @@ class SqliteStore {
   absl::StatusOr<bool> SessionExists(const std::string& id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   absl::Status Rollback() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // BEGIN IMMEDIATE, `body`, COMMIT; ROLLBACK (and body's error) if it fails.
+  absl::Status InTransaction(absl::FunctionRef<absl::Status()> body)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // INSERT of one sessions row (ALREADY_EXISTS "session sessions/x already exists").
+  absl::Status InsertSessionRow(const SessionRecord& session)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // INSERT (OR IGNORE if `ignore_duplicates`) of samples rows; `result` (may be
+  // null) records which were new.
+  absl::Status InsertSampleRows(const std::string& session_id,
+                                const std::vector<SampleRecord>& batch,
+                                bool ignore_duplicates, InsertResult* result)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   absl::Mutex mu_;
   sqlite3* db_ ABSL_GUARDED_BY(mu_);

@@ -157,6 +157,22 @@ class EndToEndTest : public ::testing::Test {
     EXPECT_LT(history.back().second, history.front().second) << json;
   }
 
+  // Runs the excite CLI against the server to completion; returns its exit code
+  // (-1 if it did not finish) and fills *out / *err with its output.
+  int RunCli(const std::vector<std::string>& args, std::string* out, std::string* err) {
+    std::vector<std::string> argv = {EXCITE_CLI_PATH, "--server=" + address_};
+    argv.insert(argv.end(), args.begin(), args.end());
+    const std::string out_path = work_.path() + "/cli.out";
+    const std::string err_path = work_.path() + "/cli.err";
+    auto cli = Subprocess::Start(argv, out_path, err_path);
+    EXPECT_TRUE(cli.ok()) << cli.status();
+    if (!cli.ok()) return -1;
+    absl::StatusOr<int> code = (*cli)->Wait(seconds(60));
+    *out = ReadFileOrEmpty(out_path);
+    *err = ReadFileOrEmpty(err_path);
+    return code.ok() ? *code : -1;
+  }
+
   TempDir work_{"excite-e2e"};
   std::string data_dir_ = work_.path() + "/data";
   std::unique_ptr<Subprocess> server_;
@@ -172,6 +188,36 @@ TEST_F(EndToEndTest, PendulumRecReducesRmse) {
 
 TEST_F(EndToEndTest, PendulumPaReducesRmse) {
   ExploreAndCheck("pa");
+  StopServer();
+}
+
+// `excite export` writes a session to a file, `excite import` brings it back
+// (under its own id or --session_id), with its samples.
+TEST_F(EndToEndTest, CliExportsAndImportsASession) {
+  ASSERT_EQ(RunSim({"--strategy=prbs", "--samples=12", "--seed=2", "--keep_session",
+                    "--session_id=cli-src"},
+                   "prbs", seconds(120)),
+            0)
+      << ReadFileOrEmpty(sim_err_);
+  const std::string file = work_.path() + "/cli-src.excite";
+  std::string out, err;
+  ASSERT_EQ(RunCli({"export", "cli-src", file}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("exported sessions/cli-src (12 samples"), std::string::npos) << out;
+  ASSERT_GT(std::filesystem::file_size(file), 0u);
+  ASSERT_EQ(RunCli({"sessions", "delete", "cli-src"}, &out, &err), 0) << err;
+
+  ASSERT_EQ(RunCli({"import", file}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("imported sessions/cli-src (12 samples)"), std::string::npos) << out;
+  EXPECT_EQ(RunCli({"import", file}, &out, &err), 1);
+  EXPECT_NE(err.find("ALREADY_EXISTS"), std::string::npos) << err;
+  ASSERT_EQ(RunCli({"import", file, "--session_id=cli-copy"}, &out, &err), 0) << err;
+  ASSERT_EQ(RunCli({"sessions", "get", "cli-copy"}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("sample_count: 12"), std::string::npos) << out;
+  EXPECT_NE(out.find("last_sequence: 11"), std::string::npos) << out;
+
+  EXPECT_EQ(RunCli({"import", work_.path() + "/no-such-file"}, &out, &err), 1);
+  EXPECT_NE(err.find("cannot read"), std::string::npos) << err;
+  EXPECT_EQ(RunCli({"export", "cli-src"}, &out, &err), 2);  // usage
   StopServer();
 }
 

@@ -1,7 +1,8 @@
 // libFuzzer target for the untrusted-input paths of excite-server: a
 // SessionConfig as textproto (config files, excite-sim, the CLI) and as binary
-// protobuf (CreateSession), its validation, and the validation of AddData,
-// Predict and PlanInputs requests against a validated config. Must never crash
+// protobuf (CreateSession), its validation, the validation of AddData,
+// Predict and PlanInputs requests against a validated config, and of a
+// SessionArchive (ImportSession, `excite import` files). Must never crash
 // (ASan); validation must be idempotent (a validated config validates again,
 // unchanged), else the target aborts.
 
@@ -16,6 +17,7 @@
 #include "server/service/config_text.h"
 #include "server/service/config_validation.h"
 #include "server/service/request_validation.h"
+#include "server/service/session_archive.h"
 
 namespace excite::service {
 namespace {
@@ -51,5 +53,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (text.ok()) excite::service::Exercise(*text, bytes);
   excite::v1::SessionConfig binary;
   if (binary.ParseFromString(bytes)) excite::service::Exercise(binary, bytes);
+  excite::v1::SessionArchive archive;
+  if (archive.ParseFromString(bytes)) {
+    (void)excite::service::ValidateSessionArchive(archive);
+  }
   return 0;
 }

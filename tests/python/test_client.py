@@ -230,6 +230,39 @@ def test_sessions_survive_a_restart(tmp_path):
         assert second.stop() == 0
 
 
+def test_export_import_round_trip(client, tmp_path):
+    # refit.never: the archived hyperparameters are used as they are after import.
+    session = client.create_session(linear_config(refit={"never": True}),
+                                    session_id="py-arch")
+    x, u, x_next, _, _ = linear_data(12, seed=8)
+    session.add(x, u, x_next)
+    z = np.hstack([x[:3], u[:3]])
+    before = session.predict(z).mean  # the one fit
+    path = tmp_path / "py-arch.excite"
+    archive = client.export_session("py-arch", path=path)
+    assert archive.format_version == 1 and archive.session_id == "py-arch"
+    assert [t.sequence for t in archive.samples] == list(range(12))
+    np.testing.assert_array_equal([list(t.state) for t in archive.samples], x)
+    assert len(archive.hyperparameters) == 2
+    assert path.read_bytes() == archive.SerializeToString()
+    session.delete()
+
+    restored = client.import_session(path)  # from the file
+    assert restored.name == "sessions/py-arch" and restored.sample_count == 12
+    assert restored.config == archive.config
+    np.testing.assert_allclose(restored.predict(z).mean, before, rtol=0, atol=1e-9)
+    copy = client.import_session(archive.SerializeToString(), session_id="py-arch-copy")
+    assert copy.name == "sessions/py-arch-copy" and copy.sample_count == 12
+    with pytest.raises(grpc.RpcError) as error:
+        client.import_session(archive)  # its id is taken now
+    assert error.value.code() == grpc.StatusCode.ALREADY_EXISTS
+    with pytest.raises(grpc.RpcError) as error:
+        client.export_session("py-no-such")
+    assert error.value.code() == grpc.StatusCode.NOT_FOUND
+    restored.delete()
+    copy.delete()
+
+
 def test_duffing_example_explores_and_reports_rmse(server):
     example = REPO / "client" / "python" / "examples" / "duffing.py"
     result = subprocess.run(

@@ -27,100 +27,20 @@
 #include "server/service/excite_server.h"
 #include "server/store/sqlite_store.h"
 #include "tests/service/pendulum_data.h"
+#include "tests/service/service_fixture.h"
 #include "tests/service/temp_dir.h"
 
 namespace excite::service {
 namespace {
 
+using ::excite::testing::BadRequestOf;
+using ::excite::testing::ExpectSameHyperparameters;
+using ::excite::testing::ExpectStatus;
+using ::excite::testing::PendulumConfig;
 using ::excite::testing::PendulumStep;
 using ::excite::testing::PendulumTransitions;
 using ::testing::HasSubstr;
-
-constexpr char kPendulumConfig[] = R"pb(
-  state_dim: 2
-  input_dim: 1
-  input_bounds { lower: -3 upper: 3 }
-  state_bounds { lower: -3.2 upper: 3.2 }
-  state_bounds { lower: -8 upper: 8 }
-  noise { variance: 1e-6 fit: true }
-  kernel { fit: true restarts: 1 max_iterations: 40 }
-  strategy: STRATEGY_REC
-  horizon: 5
-  planner { max_iterations: 30 time_budget_s: 5 }
-  seed: 7
-)pb";
-
-v1::SessionConfig PendulumConfig(v1::Strategy strategy = v1::STRATEGY_REC) {
-  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(kPendulumConfig);
-  EXPECT_TRUE(config.ok()) << config.status();
-  config->set_strategy(strategy);
-  return *config;
-}
-
-class ServiceTest : public ::testing::Test {
- protected:
-  void SetUp() override { StartServer(); }
-  void TearDown() override { StopServer(); }
-
-  void StartServer() {
-    ServerOptions options;
-    options.listen = "127.0.0.1:0";
-    options.data_dir = tmp_.path() + "/data";
-    options.limits.max_samples_per_session = 500;
-    absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
-    ASSERT_TRUE(server.ok()) << server.status();
-    server_ = *std::move(server);
-    ASSERT_GT(server_->port(), 0);
-    client_ = client::ExciteClient::Connect(server_->address());
-    ASSERT_TRUE(client_->WaitForReady(std::chrono::seconds(5)).ok());
-    stub_ = v1::ExplorationService::NewStub(
-        grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials()));
-  }
-
-  void StopServer() {
-    stub_.reset();
-    client_.reset();
-    server_.reset();  // shuts down and closes the store
-  }
-
-  v1::Session Create(const std::string& id,
-                     const v1::SessionConfig& config = PendulumConfig()) {
-    absl::StatusOr<v1::Session> session = client_->CreateSession(config, id);
-    EXPECT_TRUE(session.ok()) << session.status();
-    return session.ok() ? *session : v1::Session();
-  }
-
-  v1::AddDataResponse Add(const std::string& name,
-                          const std::vector<std::vector<v1::Transition>>& batches) {
-    absl::StatusOr<v1::AddDataResponse> response = client_->AddData(name, batches);
-    EXPECT_TRUE(response.ok()) << response.status();
-    return response.ok() ? *response : v1::AddDataResponse();
-  }
-
-  // A raw AddData stream of `messages`.
-  grpc::Status RawAddData(const std::vector<v1::AddDataRequest>& messages,
-                          v1::AddDataResponse* response) {
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    auto writer = stub_->AddData(&context, response);
-    for (const v1::AddDataRequest& m : messages) {
-      if (!writer->Write(m)) break;
-    }
-    writer->WritesDone();
-    return writer->Finish();
-  }
-
-  excite::testing::TempDir tmp_;
-  std::unique_ptr<ExciteServer> server_;
-  std::unique_ptr<client::ExciteClient> client_;
-  std::unique_ptr<v1::ExplorationService::Stub> stub_;
-};
-
-void ExpectStatus(const absl::Status& status, absl::StatusCode code,
-                  const std::string& message_part) {
-  EXPECT_EQ(status.code(), code) << status;
-  EXPECT_THAT(std::string(status.message()), HasSubstr(message_part)) << status;
-}
+using ServiceTest = ::excite::testing::ServiceTest;
 
 TEST_F(ServiceTest, CreateGetListDelete) {
   const v1::Session created = Create("pend-a");
@@ -481,15 +401,7 @@ TEST_F(ServiceTest, RefitNeverKeepsSavedHyperparametersAcrossRestart) {
   ASSERT_TRUE(after.ok()) << after.status();
   const v1::Session restored = *client_->GetSession(name);
   ASSERT_EQ(restored.outputs_size(), 2);
-  for (int i = 0; i < 2; ++i) {
-    const v1::Hyperparameters& a = fitted.outputs(i).hyperparameters();
-    const v1::Hyperparameters& b = restored.outputs(i).hyperparameters();
-    EXPECT_NEAR(b.signal_variance(), a.signal_variance(), 1e-9 * a.signal_variance());
-    EXPECT_NEAR(b.noise_variance(), a.noise_variance(), 1e-9 * a.noise_variance());
-    for (int l = 0; l < 3; ++l) {
-      EXPECT_NEAR(b.lengthscales(l), a.lengthscales(l), 1e-9 * a.lengthscales(l));
-    }
-  }
+  ExpectSameHyperparameters(restored, fitted);
   // Not bit-identical: the output standardisation (the GP's prior mean) is taken
   // from all 30 samples now, from the first 25 before.
   EXPECT_NEAR(after->mean(0), before->mean(0), 1e-4);
@@ -577,22 +489,6 @@ TEST_F(ServiceTest, RestartTimeFor100SessionsOf1000Samples) {
   ASSERT_TRUE(bulk.ok()) << bulk.status();
   EXPECT_EQ(bulk->sample_count(), 1000);
   EXPECT_EQ(bulk->outputs_size(), 2);
-}
-
-// google.rpc.BadRequest for the validation failure, parsed from the binary
-// error details (grpc-status-details-bin) of a raw gRPC call.
-google::rpc::BadRequest BadRequestOf(const grpc::Status& status) {
-  google::rpc::Status details;
-  google::rpc::BadRequest bad_request;
-  EXPECT_FALSE(status.error_details().empty()) << status.error_message();
-  EXPECT_TRUE(details.ParseFromString(status.error_details()));
-  EXPECT_EQ(details.code(), static_cast<int>(status.error_code()));
-  EXPECT_EQ(details.message(), status.error_message());
-  EXPECT_EQ(details.details_size(), 1);
-  if (details.details_size() == 1) {
-    EXPECT_TRUE(details.details(0).UnpackTo(&bad_request));
-  }
-  return bad_request;
 }
 
 TEST_F(ServiceTest, InvalidArgumentCarriesBadRequestFieldViolations) {

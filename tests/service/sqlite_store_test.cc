@@ -140,6 +140,61 @@ TEST(SqliteStoreTest, CreateTwiceIsAlreadyExists) {
   EXPECT_THAT(status.message(), HasSubstr("sessions/s"));
 }
 
+TEST(SqliteStoreTest, ImportStoresSessionAndSamplesTogether) {
+  excite::testing::TempDir tmp;
+  {
+    auto store = SqliteStore::Open(tmp.path());
+    ASSERT_TRUE(store.ok()) << store.status();
+    SessionRecord record = Session("imported");
+    record.hyperparameters = "hyper";
+    record.model_version = 3;
+    ASSERT_TRUE((*store)->ImportSession(record, {Sample(4), Sample(1), Sample(2)}).ok());
+  }
+  auto store = SqliteStore::Open(tmp.path());  // durable
+  ASSERT_TRUE(store.ok()) << store.status();
+  auto loaded = (*store)->LoadSession("imported");
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->config, Session("x").config);
+  EXPECT_EQ(loaded->created_unix_ms, 1700000000123);
+  EXPECT_EQ(loaded->hyperparameters, "hyper");
+  EXPECT_EQ(loaded->model_version, 3);
+  auto samples = (*store)->LoadSamples("imported");
+  ASSERT_TRUE(samples.ok()) << samples.status();
+  ASSERT_EQ(samples->size(), 3u);
+  EXPECT_EQ((*samples)[0].sequence, 1);
+  EXPECT_EQ((*samples)[2].state, Sample(4).state);
+  EXPECT_TRUE(absl::IsNotFound((*store)->LoadSession("nope").status()));
+}
+
+// All or nothing: a failure half-way (a duplicate sequence number, a taken id)
+// leaves neither the session nor any of its samples.
+TEST(SqliteStoreTest, FailedImportStoresNothing) {
+  excite::testing::TempDir tmp;
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok()) << store.status();
+  const absl::Status duplicate =
+      (*store)->ImportSession(Session("half"), {Sample(0), Sample(1), Sample(0)});
+  EXPECT_FALSE(duplicate.ok());
+  EXPECT_THAT(std::string(duplicate.message()), HasSubstr("sample 0 of half"));
+  auto sessions = (*store)->LoadSessions();
+  ASSERT_TRUE(sessions.ok()) << sessions.status();
+  EXPECT_TRUE(sessions->empty());
+  auto samples = (*store)->LoadSamples("half");
+  ASSERT_TRUE(samples.ok()) << samples.status();
+  EXPECT_TRUE(samples->empty());
+
+  ASSERT_TRUE((*store)->CreateSession(Session("taken")).ok());
+  ASSERT_TRUE((*store)->InsertSamples("taken", {Sample(7)}).ok());
+  const absl::Status taken = (*store)->ImportSession(Session("taken"), {Sample(8)});
+  EXPECT_TRUE(absl::IsAlreadyExists(taken)) << taken;
+  samples = (*store)->LoadSamples("taken");
+  ASSERT_TRUE(samples.ok()) << samples.status();
+  ASSERT_EQ(samples->size(), 1u);
+  EXPECT_EQ((*samples)[0].sequence, 7);
+  // The store is usable afterwards (no transaction left open).
+  EXPECT_TRUE((*store)->ImportSession(Session("half"), {Sample(0), Sample(1)}).ok());
+}
+
 TEST(SqliteStoreTest, DeleteRemovesSessionAndSamples) {
   excite::testing::TempDir tmp;
   {

@@ -274,6 +274,34 @@ class Client:
             metadata=_session_metadata(name),
         )
 
+    def export_session(self, name, path=None):
+        """The session "sessions/{id}" (or "{id}") as a ``SessionArchive`` message:
+        config, every sample, last fitted hyperparameters. With `path`, also writes
+        it there in the format of ``excite export`` (the serialized message).
+        RESOURCE_EXHAUSTED if it is larger than the server's or this client's
+        message limit (``max_message_mb``)."""
+        archive = self.stub.ExportSession(
+            pb.ExportSessionRequest(name=_full_name(name)), timeout=self.timeout_s,
+            metadata=_session_metadata(name))
+        if path is not None:
+            pathlib.Path(path).write_bytes(archive.SerializeToString())
+        return archive
+
+    def import_session(self, archive, session_id=None):
+        """Creates a session from `archive`: a ``SessionArchive``, its serialized
+        bytes, or the path (``str`` / ``pathlib.Path``) of a file written by
+        ``excite export`` or :meth:`export_session`. The new session's id is
+        `session_id`, else the archive's. All or nothing on the server; returns the
+        :class:`Session`."""
+        if isinstance(archive, (str, pathlib.Path)):
+            archive = pathlib.Path(archive).read_bytes()
+        if isinstance(archive, (bytes, bytearray)):
+            archive = pb.SessionArchive.FromString(bytes(archive))
+        request = pb.ImportSessionRequest(archive=archive, session_id=session_id or "")
+        return Session(self, self.stub.ImportSession(
+            request, timeout=self.timeout_s,
+            metadata=_session_metadata(session_id or archive.session_id)))
+
 
 class Session:
     """One session: its GP model lives on the server.

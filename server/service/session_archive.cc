@@ -1,0 +1,104 @@
+#include "server/service/session_archive.h"
+
+#include <optional>
+#include <string>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "server/service/config_validation.h"
+#include "server/service/field_violation.h"
+#include "server/service/request_validation.h"
+#include "server/service/resource_name.h"
+#include "server/service/store_conversion.h"
+
+namespace excite::service {
+
+absl::StatusOr<v1::SessionConfig> ValidateSessionArchive(
+    const v1::SessionArchive& archive, absl::string_view path) {
+  if (archive.format_version() != kSessionArchiveFormatVersion) {
+    return FieldViolationError(
+        absl::StrCat(path, ".format_version"),
+        absl::StrCat("must be ", kSessionArchiveFormatVersion,
+                     " (the archive format this server reads), got ",
+                     archive.format_version(),
+                     archive.format_version() > kSessionArchiveFormatVersion
+                         ? ": written by a newer excite-server"
+                         : ": not a SessionArchive written by excite export"));
+  }
+  if (absl::Status s =
+          CheckOptionalSessionId(archive.session_id(), absl::StrCat(path, ".session_id"));
+      !s.ok()) {
+    return s;
+  }
+  absl::StatusOr<v1::SessionConfig> config =
+      ValidatedSessionConfig(archive.config(), absl::StrCat(path, ".config"));
+  if (!config.ok()) return config.status();
+  if (absl::Status s =
+          ValidateTransitions(*config, archive.samples(), absl::StrCat(path, ".samples"));
+      !s.ok()) {
+    return s;
+  }
+  const std::string hpath = absl::StrCat(path, ".hyperparameters");
+  if (!archive.hyperparameters().empty()) {
+    if (archive.hyperparameters_size() != config->state_dim()) {
+      return FieldViolationError(
+          hpath, absl::StrCat("must be empty or have state_dim (", config->state_dim(),
+                              ") entries, got ", archive.hyperparameters_size()));
+    }
+    const int z_dim = config->state_dim() + config->input_dim();
+    for (int i = 0; i < archive.hyperparameters_size(); ++i) {
+      if (absl::Status s = ValidateHyperparameters(absl::StrCat(hpath, "[", i, "]"),
+                                                   archive.hyperparameters(i), z_dim);
+          !s.ok()) {
+        return s;
+      }
+    }
+  }
+  if (archive.created_unix_ms() < 0) {
+    return FieldViolationError(
+        absl::StrCat(path, ".created_unix_ms"),
+        absl::StrCat("must be >= 0 (0: unknown), got ", archive.created_unix_ms()));
+  }
+  return config;
+}
+
+absl::StatusOr<v1::SessionArchive> ArchiveFromStore(
+    const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples) {
+  v1::SessionArchive archive;
+  archive.set_format_version(kSessionArchiveFormatVersion);
+  archive.set_session_id(record.id);
+  if (!archive.mutable_config()->ParseFromString(record.config)) {
+    return absl::DataLossError(
+        absl::StrCat("session ", record.id, ": the stored config does not parse"));
+  }
+  std::optional<std::vector<v1::Hyperparameters>> saved =
+      DecodeSavedHyperparameters(record.hyperparameters);
+  if (!saved.has_value()) {
+    return absl::DataLossError(
+        absl::StrCat("session ", record.id, ": the stored hyperparameters do not parse"));
+  }
+  for (v1::Hyperparameters& h : *saved) *archive.add_hyperparameters() = std::move(h);
+  archive.mutable_samples()->Reserve(static_cast<int>(samples.size()));
+  for (const store::SampleRecord& sample : samples) {
+    *archive.add_samples() = ToTransition(sample);
+  }
+  archive.set_created_unix_ms(record.created_unix_ms);
+  return archive;
+}
+
+ArchiveRecords ArchiveToStore(const v1::SessionArchive& archive,
+                              const v1::SessionConfig& validated_config,
+                              int64_t now_unix_ms) {
+  ArchiveRecords out;
+  out.record.config = validated_config.SerializeAsString();
+  out.record.created_unix_ms =
+      archive.created_unix_ms() > 0 ? archive.created_unix_ms() : now_unix_ms;
+  out.record.hyperparameters = EncodeSavedHyperparameters(archive.hyperparameters());
+  out.samples.reserve(static_cast<size_t>(archive.samples_size()));
+  for (const v1::Transition& t : archive.samples()) {
+    out.samples.push_back(ToSampleRecord(t));
+  }
+  return out;
+}
+
+}  // namespace excite::service

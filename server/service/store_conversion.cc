@@ -1,0 +1,48 @@
+#include "server/service/store_conversion.h"
+
+namespace excite::service {
+
+store::SampleRecord ToSampleRecord(const v1::Transition& transition) {
+  store::SampleRecord record;
+  record.sequence = transition.sequence();
+  record.state.assign(transition.state().begin(), transition.state().end());
+  record.input.assign(transition.input().begin(), transition.input().end());
+  record.next_state.assign(transition.next_state().begin(),
+                           transition.next_state().end());
+  record.timestamp_s = transition.timestamp_s();
+  return record;
+}
+
+v1::Transition ToTransition(const store::SampleRecord& sample) {
+  v1::Transition transition;
+  transition.set_sequence(sample.sequence);
+  transition.mutable_state()->Add(sample.state.begin(), sample.state.end());
+  transition.mutable_input()->Add(sample.input.begin(), sample.input.end());
+  transition.mutable_next_state()->Add(sample.next_state.begin(),
+                                       sample.next_state.end());
+  transition.set_timestamp_s(sample.timestamp_s);
+  return transition;
+}
+
+std::string EncodeSavedHyperparameters(
+    const google::protobuf::RepeatedPtrField<v1::Hyperparameters>& hyperparameters) {
+  v1::Session saved;
+  for (const v1::Hyperparameters& h : hyperparameters) {
+    *saved.add_outputs()->mutable_hyperparameters() = h;
+  }
+  return saved.SerializeAsString();
+}
+
+std::optional<std::vector<v1::Hyperparameters>> DecodeSavedHyperparameters(
+    const std::string& bytes) {
+  v1::Session saved;
+  if (!saved.ParseFromString(bytes)) return std::nullopt;
+  std::vector<v1::Hyperparameters> result;
+  result.reserve(static_cast<size_t>(saved.outputs_size()));
+  for (const v1::OutputModel& output : saved.outputs()) {
+    result.push_back(output.hyperparameters());
+  }
+  return result;
+}
+
+}  // namespace excite::service

@@ -1,0 +1,32 @@
+#ifndef EXCITE_SERVER_SERVICE_STORE_CONVERSION_H_
+#define EXCITE_SERVER_SERVICE_STORE_CONVERSION_H_
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "excite/v1/exploration_service.pb.h"
+#include "excite/v1/session_config.pb.h"
+#include "google/protobuf/repeated_field.h"
+#include "server/store/store_records.h"
+
+namespace excite::service {
+
+// Wire messages <-> the store's records (the only place where they meet).
+
+// A Transition as the store keeps it, and back (every field is kept).
+store::SampleRecord ToSampleRecord(const v1::Transition& transition);
+v1::Transition ToTransition(const store::SampleRecord& sample);
+
+// The store's opaque hyperparameter bytes (SessionRecord::hyperparameters) are a
+// serialized Session holding only `outputs`.
+std::string EncodeSavedHyperparameters(
+    const google::protobuf::RepeatedPtrField<v1::Hyperparameters>& hyperparameters);
+// The hyperparameters of each output; nullopt if `bytes` do not parse. Empty
+// bytes (never fitted) give an empty vector.
+std::optional<std::vector<v1::Hyperparameters>> DecodeSavedHyperparameters(
+    const std::string& bytes);
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_STORE_CONVERSION_H_
