@@ -62,17 +62,19 @@ gp::DynamicsModel FittedModel(int n) {
   return *std::move(model);
 }
 
-TEST(PlannerGpTest, IpoptDerivativeCheckerOnTheGp) {
-  const gp::DynamicsModel model = FittedModel(80);
-  const int horizon = 8;
-  Eigen::MatrixXd inputs(horizon, 1), states(horizon, 2);
-  for (int i = 0; i < horizon; ++i) {
-    inputs(i, 0) = 2.5 * std::sin(0.9 * i);
-    states.row(i) << 0.3 * std::cos(0.5 * i), 1.5 * std::sin(0.7 * i);
+// A smooth, non-trivial starting trajectory of 8 steps for the derivative checks.
+void CheckerStart(Eigen::MatrixXd* inputs, Eigen::MatrixXd* states) {
+  constexpr int kHorizon = 8;
+  inputs->resize(kHorizon, 1);
+  states->resize(kHorizon, 2);
+  for (int i = 0; i < kHorizon; ++i) {
+    (*inputs)(i, 0) = 2.5 * std::sin(0.9 * i);
+    states->row(i) << 0.3 * std::cos(0.5 * i), 1.5 * std::sin(0.7 * i);
   }
-  Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
-      model, Eigen::Vector2d(0.1, -0.2), Eigen::VectorXd::Constant(1, -3.0),
-      Eigen::VectorXd::Constant(1, 3.0), inputs, states);
+}
+
+// Ipopt's first-order derivative checker at the NLP's starting point: its log.
+std::string DerivativeCheckerLog(const Ipopt::SmartPtr<MultipleShootingNlp>& nlp) {
   IpoptSettings settings;
   settings.max_iterations = 0;
   settings.string_options = {{"derivative_test", "first-order"},
@@ -80,6 +82,17 @@ TEST(PlannerGpTest, IpoptDerivativeCheckerOnTheGp) {
   std::string log;
   settings.log = &log;
   SolveTnlp(nlp, settings);
+  return log;
+}
+
+TEST(PlannerGpTest, IpoptDerivativeCheckerOnTheGp) {
+  const gp::DynamicsModel model = FittedModel(80);
+  Eigen::MatrixXd inputs, states;
+  CheckerStart(&inputs, &states);
+  Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
+      model, Eigen::Vector2d(0.1, -0.2), Eigen::VectorXd::Constant(1, -3.0),
+      Eigen::VectorXd::Constant(1, 3.0), inputs, states);
+  const std::string log = DerivativeCheckerLog(nlp);
   EXPECT_NE(log.find("No errors detected by derivative checker"), std::string::npos)
       << log;
 }
@@ -176,24 +189,14 @@ TEST(PlannerGpTest, SepSearchOnTheGp) {
 
 TEST(PlannerGpTest, SteeringDerivativeCheckerOnTheGp) {
   const gp::DynamicsModel model = FittedModel(80);
-  const int horizon = 8;
-  Eigen::MatrixXd inputs(horizon, 1), states(horizon, 2);
-  for (int i = 0; i < horizon; ++i) {
-    inputs(i, 0) = 2.5 * std::sin(0.9 * i);
-    states.row(i) << 0.3 * std::cos(0.5 * i), 1.5 * std::sin(0.7 * i);
-  }
+  Eigen::MatrixXd inputs, states;
+  CheckerStart(&inputs, &states);
   const SteeringObjective objective(Eigen::Vector2d(1.5, -2.0),
                                     Eigen::Vector2d(1.0 / 9.87, 1.0 / 64.0));
   Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
       model, objective, Eigen::Vector2d(0.1, -0.2), Eigen::VectorXd::Constant(1, -3.0),
       Eigen::VectorXd::Constant(1, 3.0), inputs, states);
-  IpoptSettings settings;
-  settings.max_iterations = 0;
-  settings.string_options = {{"derivative_test", "first-order"},
-                             {"derivative_test_print_all", "no"}};
-  std::string log;
-  settings.log = &log;
-  SolveTnlp(nlp, settings);
+  const std::string log = DerivativeCheckerLog(nlp);
   EXPECT_NE(log.find("No errors detected by derivative checker"), std::string::npos)
       << log;
 }
