@@ -7,10 +7,10 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <optional>
-#include <regex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -42,33 +42,57 @@ class TempDir {
   std::string path_;
 };
 
+// Where the value of "key" starts in a JSON text (after the colon and spaces), or
+// npos. (No std::regex: GCC 12 warns inside it under ASan, and the asan preset
+// builds with -Werror.)
+size_t ValueStart(const std::string& json, const std::string& key) {
+  size_t at = json.find("\"" + key + "\":");
+  if (at == std::string::npos) return at;
+  at += key.size() + 3;
+  while (at < json.size() && json[at] == ' ') ++at;
+  return at;
+}
+
+// The number starting at json[at], if there is one; `end` (if given) gets the
+// position after it.
+std::optional<double> NumberAt(const std::string& json, size_t at,
+                               size_t* end = nullptr) {
+  if (at >= json.size()) return std::nullopt;
+  const char* begin = json.c_str() + at;
+  char* stop = nullptr;
+  const double value = std::strtod(begin, &stop);
+  if (stop == begin) return std::nullopt;
+  if (end != nullptr) *end = at + static_cast<size_t>(stop - begin);
+  return value;
+}
+
 // The number after "key": in a JSON text, if it is one.
 std::optional<double> JsonNumber(const std::string& json, const std::string& key) {
-  const std::regex pattern("\"" + key + "\": *([-+0-9.eE]+)");
-  std::smatch match;
-  if (!std::regex_search(json, match, pattern)) return std::nullopt;
-  return std::stod(match[1].str());
+  return NumberAt(json, ValueStart(json, key));
 }
 
 std::optional<std::string> JsonString(const std::string& json, const std::string& key) {
-  const std::regex pattern("\"" + key + "\": *\"([^\"]*)\"");
-  std::smatch match;
-  if (!std::regex_search(json, match, pattern)) return std::nullopt;
-  return match[1].str();
+  const size_t at = ValueStart(json, key);
+  if (at >= json.size() || json[at] != '"') return std::nullopt;
+  const size_t close = json.find('"', at + 1);
+  if (close == std::string::npos) return std::nullopt;
+  return json.substr(at + 1, close - at - 1);
 }
 
 // rmse_history as (samples, rmse) pairs; a null rmse makes the list shorter.
 std::vector<std::pair<double, double>> RmseHistory(const std::string& json) {
   std::vector<std::pair<double, double>> history;
-  const size_t start = json.find("\"rmse_history\"");
-  if (start == std::string::npos) return history;
-  const size_t end = json.find("]]", start);
-  const std::string list =
-      json.substr(start, end == std::string::npos ? 0 : end + 2 - start);
-  const std::regex pair(R"(\[([0-9]+), ([-+0-9.eE]+)\])");
-  for (auto it = std::sregex_iterator(list.begin(), list.end(), pair);
-       it != std::sregex_iterator(); ++it) {
-    history.emplace_back(std::stod((*it)[1].str()), std::stod((*it)[2].str()));
+  size_t at = ValueStart(json, "rmse_history");
+  if (at >= json.size() || json[at] != '[') return history;
+  const size_t end = json.find("]]", at);
+  if (end == std::string::npos) return history;
+  // Each pair is "[samples, rmse]".
+  while ((at = json.find('[', at + 1)) != std::string::npos && at < end) {
+    size_t after = 0;
+    const std::optional<double> samples = NumberAt(json, at + 1, &after);
+    if (!samples.has_value() || json.compare(after, 2, ", ") != 0) continue;
+    const std::optional<double> rmse = NumberAt(json, after + 2);
+    if (rmse.has_value()) history.emplace_back(*samples, *rmse);
   }
   return history;
 }
