@@ -20,6 +20,8 @@ Eigen::MatrixXd CrossCovariance(const Eigen::MatrixXd& a_scaled,
 
 Eigen::MatrixXd Covariance(const Eigen::MatrixXd& s_scaled, double signal_variance) {
   const Eigen::Index n = s_scaled.rows();
+  // Eigen's rank update binds a reference to an empty matrix's null data (UBSan).
+  if (n == 0) return Eigen::MatrixXd(0, 0);
   Eigen::MatrixXd d2 = Eigen::MatrixXd::Zero(n, n);
   d2.selfadjointView<Eigen::Lower>().rankUpdate(s_scaled, -2.0);
   d2.colwise() += s_scaled.rowwise().squaredNorm();
