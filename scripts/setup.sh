@@ -18,6 +18,7 @@ PACKAGES=(
   clang libclang-rt-14-dev   # tests/fuzz: libFuzzer target (config_fuzz_30s)
   # container smoke test (tests/container): podman with runc, a local base image, compose
   podman runc netavark aardvark-dns debootstrap podman-compose
+  iptables  # netavark (podman's network backend) runs it: without it every container fails
 )
 
 missing=()

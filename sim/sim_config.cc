@@ -20,7 +20,8 @@ constexpr std::pair<const char*, v1::Strategy> kStrategyNames[] = {
     {"rec", v1::STRATEGY_REC},       {"pa", v1::STRATEGY_PA},
     {"greedy", v1::STRATEGY_GREEDY}, {"prbs", v1::STRATEGY_PRBS},
     {"chirp", v1::STRATEGY_CHIRP},   {"random", v1::STRATEGY_RANDOM},
-    {"sep", v1::STRATEGY_SEP},
+    {"sep", v1::STRATEGY_SEP},       {"mi", v1::STRATEGY_MI},
+    {"roi", v1::STRATEGY_ROI},
 };
 
 // Collects text-format parse errors into one message.

@@ -395,6 +395,62 @@ void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
   }
 }
 
+namespace {
+
+// A point set in the model's normalised inputs with L \ K(X, z) of every output.
+struct GpPreparedPoints final : DynamicsPredictor::PreparedPoints {
+  Eigen::MatrixXd normalised;            // m x z_dim
+  std::vector<Eigen::MatrixXd> factors;  // per output: n x m
+};
+
+const GpPreparedPoints& AsGp(const DynamicsPredictor::PreparedPoints& p) {
+  return static_cast<const GpPreparedPoints&>(p);
+}
+
+}  // namespace
+
+std::unique_ptr<DynamicsPredictor::PreparedPoints> DynamicsModel::PreparePoints(
+    const Eigen::MatrixXd& z) const {
+  const State& s = *state_;
+  if (!s.fitted || z.cols() != s.z_dim) return nullptr;
+  auto prepared = std::make_unique<GpPreparedPoints>();
+  prepared->normalised = s.Normalise(z);
+  for (const GpModel& gp : s.gps) {
+    prepared->factors.push_back(gp.CrossFactor(prepared->normalised));
+  }
+  return prepared;
+}
+
+std::vector<Eigen::MatrixXd> DynamicsModel::PosteriorCovariance(
+    const PreparedPoints& a, const PreparedPoints& b) const {
+  const State& s = *state_;
+  const GpPreparedPoints& pa = AsGp(a);
+  const GpPreparedPoints& pb = AsGp(b);
+  std::vector<Eigen::MatrixXd> cov;
+  for (int j = 0; j < s.state_dim; ++j) {
+    cov.push_back(s.out_std(j) * s.out_std(j) *
+                  s.gps[j].PosteriorCovariance(pa.normalised, pa.factors[j],
+                                               pb.normalised, pb.factors[j]));
+  }
+  return cov;
+}
+
+Eigen::MatrixXd DynamicsModel::PosteriorCovarianceGradient(
+    const PreparedPoints& a, const PreparedPoints& b,
+    const std::vector<Eigen::MatrixXd>& weights) const {
+  const State& s = *state_;
+  const GpPreparedPoints& pa = AsGp(a);
+  const GpPreparedPoints& pb = AsGp(b);
+  Eigen::MatrixXd grad = Eigen::MatrixXd::Zero(pa.normalised.rows(), s.z_dim);
+  for (int j = 0; j < s.state_dim; ++j) {
+    grad += s.out_std(j) * s.out_std(j) *
+            s.gps[j].PosteriorCovarianceGradient(pa.normalised, pb.normalised,
+                                                 pb.factors[j], weights[j]);
+  }
+  // Normalised inputs: d / dz = (d / dz_n) / half_width.
+  return grad * s.half_width.cwiseInverse().asDiagonal();
+}
+
 Eigen::VectorXd DynamicsModel::noise_variances() const {
   const State& s = *state_;
   Eigen::VectorXd out(s.state_dim);

@@ -105,6 +105,18 @@ class DynamicsModel final : public DynamicsPredictor {
                std::vector<Eigen::MatrixXd>* mean_jacobians,
                std::vector<Eigen::MatrixXd>* variance_jacobians) const override;
 
+  // Joint posterior covariances (see DynamicsPredictor). Require fitted(); a set
+  // prepared before a model change must not be used after it. PreparePoints costs
+  // O(m n^2) per output, PosteriorCovariance O(m_a m_b n), the gradient
+  // O(m_a n^2 + m_a m_b n) per output.
+  std::unique_ptr<PreparedPoints> PreparePoints(const Eigen::MatrixXd& z) const override;
+  std::vector<Eigen::MatrixXd> PosteriorCovariance(
+      const PreparedPoints& a, const PreparedPoints& b) const override;
+  Eigen::MatrixXd PosteriorCovarianceGradient(
+      const PreparedPoints& a, const PreparedPoints& b,
+      const std::vector<Eigen::MatrixXd>& weights) const override;
+  Eigen::VectorXd ObservationNoiseVariances() const override { return noise_variances(); }
+
   // Noise variance of each output's target (data units), for "latent + noise".
   Eigen::VectorXd noise_variances() const;
   // Per output, in data units; empty before the first Refit() unless seeded

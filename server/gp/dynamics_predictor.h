@@ -2,6 +2,7 @@
 #define EXCITE_SERVER_GP_DYNAMICS_PREDICTOR_H_
 
 #include <Eigen/Dense>
+#include <memory>
 #include <vector>
 
 namespace excite::gp {
@@ -27,6 +28,45 @@ class DynamicsPredictor {
                        Eigen::MatrixXd* variance,
                        std::vector<Eigen::MatrixXd>* mean_jacobians,
                        std::vector<Eigen::MatrixXd>* variance_jacobians) const = 0;
+
+  // Joint posterior covariances, for objectives that value a set of points
+  // together (mutual information, variance reduction over a region). Optional:
+  // the defaults say "not supported" (PreparePoints returns null).
+  //
+  // A point set with what depends only on the model and the set computed once
+  // (for a GP: L \ K(X, z) per output, O(m n^2)). Valid while the model is not
+  // changed.
+  class PreparedPoints {
+   public:
+    virtual ~PreparedPoints() = default;
+  };
+  // z: m x z_dim. Null if the model has no joint covariances.
+  virtual std::unique_ptr<PreparedPoints> PreparePoints(const Eigen::MatrixXd& z) const {
+    (void)z;
+    return nullptr;
+  }
+  // Per output j, the latent posterior covariance between the points of a and b
+  // (rows(a) x rows(b), data units squared). Both from this model's PreparePoints.
+  virtual std::vector<Eigen::MatrixXd> PosteriorCovariance(
+      const PreparedPoints& a, const PreparedPoints& b) const {
+    (void)a;
+    (void)b;
+    return {};
+  }
+  // Gradient w.r.t. the points of a (b held fixed) of
+  // sum_j sum_ik weights[j](i, k) cov_j(a_i, b_k): rows(a) x z_dim. For a weight
+  // on cov(a, a) with a symmetric weight matrix, pass b = a and twice the weights.
+  virtual Eigen::MatrixXd PosteriorCovarianceGradient(
+      const PreparedPoints& a, const PreparedPoints& b,
+      const std::vector<Eigen::MatrixXd>& weights) const {
+    (void)b;
+    (void)weights;
+    (void)a;
+    return {};
+  }
+  // Noise variance of each output's observations (state_dim, data units): what a
+  // new sample's target is measured with. Empty if unknown.
+  virtual Eigen::VectorXd ObservationNoiseVariances() const { return {}; }
 };
 
 }  // namespace excite::gp

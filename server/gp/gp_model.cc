@@ -239,4 +239,43 @@ void GpModel::Predict(const Eigen::MatrixXd& xs, Eigen::VectorXd* mean,
   }
 }
 
+Eigen::MatrixXd GpModel::CrossFactor(const Eigen::MatrixXd& xs) const {
+  Eigen::MatrixXd v =
+      CrossCovariance(x_scaled_, ScaleInputs(xs, hyperparameters_.lengthscales),
+                      hyperparameters_.signal_variance);  // n x m
+  LowerFactor().solveInPlace(v);
+  return v;
+}
+
+Eigen::MatrixXd GpModel::PosteriorCovariance(const Eigen::MatrixXd& a,
+                                             const Eigen::MatrixXd& a_factor,
+                                             const Eigen::MatrixXd& b,
+                                             const Eigen::MatrixXd& b_factor) const {
+  const Eigen::VectorXd& ls = hyperparameters_.lengthscales;
+  Eigen::MatrixXd k = CrossCovariance(ScaleInputs(a, ls), ScaleInputs(b, ls),
+                                      hyperparameters_.signal_variance);
+  k.noalias() -= a_factor.transpose() * b_factor;
+  return k;
+}
+
+Eigen::MatrixXd GpModel::PosteriorCovarianceGradient(const Eigen::MatrixXd& a,
+                                                     const Eigen::MatrixXd& b,
+                                                     const Eigen::MatrixXd& b_factor,
+                                                     const Eigen::MatrixXd& w) const {
+  const Eigen::VectorXd& ls = hyperparameters_.lengthscales;
+  const double sf2 = hyperparameters_.signal_variance;
+  const Eigen::MatrixXd sa = ScaleInputs(a, ls);
+  // Prior part: d k(a_i, b_k) / d a_i = -k(a_i, b_k) (a_i - b_k) / l^2, weighted.
+  const Eigen::MatrixXd c = w.cwiseProduct(CrossCovariance(sa, ScaleInputs(b, ls), sf2));
+  Eigen::MatrixXd grad = c * b - a.cwiseProduct(c.rowwise().sum().replicate(1, a.cols()));
+  // Data part: -sum_k w_ik dV_{a_i}^T V_{b_k} = -dK(X, a_i)^T q_i with
+  // q = L^T \ (V_b w^T) (n x m_a).
+  Eigen::MatrixXd q = b_factor * w.transpose();
+  UpperFactor().solveInPlace(q);
+  const Eigen::MatrixXd e =
+      CrossCovariance(sa, x_scaled_, sf2).cwiseProduct(q.transpose());
+  grad += a.cwiseProduct(e.rowwise().sum().replicate(1, a.cols())) - e * x_;
+  return grad * ls.cwiseAbs2().cwiseInverse().asDiagonal();
+}
+
 }  // namespace excite::gp

@@ -67,6 +67,24 @@ class GpModel {
                Eigen::VectorXd* variance, Eigen::MatrixXd* mean_jacobian,
                Eigen::MatrixXd* variance_jacobian) const;
 
+  // Joint posterior covariances, for information objectives over many points.
+  // CrossFactor(xs) = L \ K(X, xs) (n x m): what depends on the data and on a
+  // point set, computed once per set, O(m n^2). Requires size() > 0.
+  Eigen::MatrixXd CrossFactor(const Eigen::MatrixXd& xs) const;
+  // Latent posterior covariance k_D(a, b) = k(a, b) - V_a^T V_b (rows(a) x rows(b))
+  // from the points and their CrossFactor. O(m_a m_b (n + d)).
+  Eigen::MatrixXd PosteriorCovariance(const Eigen::MatrixXd& a,
+                                      const Eigen::MatrixXd& a_factor,
+                                      const Eigen::MatrixXd& b,
+                                      const Eigen::MatrixXd& b_factor) const;
+  // Gradient w.r.t. the points a (b held fixed) of sum_ik w(i, k) k_D(a_i, b_k):
+  // rows(a) x d, row i = d / d a_i. w: rows(a) x rows(b). For a symmetric weight on
+  // k_D(a, a), pass b = a and 2 w (k_D is symmetric). O(m_a n^2 + m_a m_b n).
+  Eigen::MatrixXd PosteriorCovarianceGradient(const Eigen::MatrixXd& a,
+                                              const Eigen::MatrixXd& b,
+                                              const Eigen::MatrixXd& b_factor,
+                                              const Eigen::MatrixXd& w) const;
+
  private:
   absl::Status Factorise();
   // Views of L and L^T (n x n).

@@ -20,6 +20,8 @@ enum class Strategy {
   kChirp,   // linear swept-frequency sine between the input bounds
   kRandom,  // uniform random inputs held for a number of samples
   kSep,     // separated search (argmax H over X x U) and control (steer, apply u*)
+  kMi,      // rec with the horizon's joint mutual information instead of summed entropy
+  kRoi,     // rec maximising the variance removed over a reference set of the region
 };
 
 // True for the strategies that never evaluate the model (prbs, chirp, random).
@@ -54,7 +56,8 @@ struct PlanOptions {
   Eigen::VectorXd input_lower;
   Eigen::VectorXd input_upper;
   // Region of interest of the state (empty or state_dim entries each); required
-  // by kSep (its search box and the scale of its steering distance).
+  // by kSep (its search box and the scale of its steering distance) and kRoi
+  // (with the input bounds, the box of its reference set).
   Eigen::VectorXd state_lower;
   Eigen::VectorXd state_upper;
   int max_iterations = 100;  // Ipopt iterations per start
@@ -63,6 +66,8 @@ struct PlanOptions {
   uint64_t seed = 0;
   SignalOptions signal;
   SepOptions sep;
+  // kRoi: points of the reference set over state x input bounds (>= 1).
+  int roi_reference_points = 256;
 };
 
 // Limits of one call: the best plan so far is returned when one is hit.
@@ -88,8 +93,10 @@ struct PlanSummary {
   PlanStatus status = PlanStatus::kNotConverged;
   int iterations = 0;  // Ipopt iterations summed over starts (+ L-BFGS-B for sep)
   int starts = 0;      // Ipopt starts solved
-  // Summed differential entropy of the returned plan (nats); 0 for the
-  // model-free strategies.
+  // What the strategy maximised, on the returned plan: the summed differential
+  // entropy (nats) for rec, pa, greedy and sep; the mutual information (nats) for
+  // mi; the fraction of the summed variance over the reference set removed for
+  // roi; 0 for the model-free strategies.
   double objective = 0.0;
   double wall_time_ms = 0.0;
   // kSep only: the searched z* = (x*, u*) and its entropy H(z*) (nats).

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <random>
 #include <utility>
 #include <vector>
@@ -11,8 +12,10 @@
 #include "absl/strings/str_cat.h"
 #include "server/plan/chirp_signal.h"
 #include "server/plan/entropy_objective.h"
+#include "server/plan/information_objectives.h"
 #include "server/plan/prbs_signal.h"
 #include "server/plan/random_signal.h"
+#include "server/plan/reference_set.h"
 #include "server/plan/sep_planner.h"
 #include "server/plan/shooting_solver.h"
 
@@ -33,6 +36,20 @@ constexpr double kObjectiveScaling = 100.0;
 // Uniform in [0, 1) from 53 random bits: the same on every platform.
 double Uniform01(std::mt19937_64& rng) {
   return static_cast<double>(rng() >> 11) * 0x1.0p-53;
+}
+
+absl::Status ValidateStateBounds(const PlanOptions& options, int state_dim,
+                                 const char* strategy) {
+  const Eigen::VectorXd& lower = options.state_lower;
+  const Eigen::VectorXd& upper = options.state_upper;
+  if (lower.size() != state_dim || upper.size() != state_dim || !lower.allFinite() ||
+      !upper.allFinite() || !(lower.array() < upper.array()).all()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(strategy, " needs state bounds: state_dim (", state_dim,
+                     ") finite intervals with lower < upper, got ", lower.size(), " and ",
+                     upper.size(), " entries"));
+  }
+  return absl::OkStatus();
 }
 
 absl::Status ValidateSignal(const SignalOptions& signal, Strategy strategy) {
@@ -121,7 +138,7 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
     std::mt19937_64 rng(seq);
     plan = PlanSeparated(model, x0, options_, rng(), stop, &local);
   } else {
-    plan = PlanEntropy(model, x0, call, stop, &local);
+    plan = PlanTrajectory(model, x0, call, stop, &local);
   }
   if (!plan.ok()) return plan.status();
   local.wall_time_ms =
@@ -159,10 +176,42 @@ Plan Planner::PlanSignal(int state_dim, int64_t time_index) const {
   return plan;
 }
 
-absl::StatusOr<Plan> Planner::PlanEntropy(const gp::DynamicsPredictor& model,
-                                          const Eigen::VectorXd& x0, uint64_t call,
-                                          const std::function<bool()>& stop,
-                                          PlanSummary* summary) {
+absl::StatusOr<std::unique_ptr<ShootingObjective>> Planner::MakeObjective(
+    const gp::DynamicsPredictor& model) {
+  switch (options_.strategy) {
+    case Strategy::kMi: {
+      auto objective = NegativeMutualInformationObjective::Create(model);
+      if (!objective.ok()) return objective.status();
+      return std::unique_ptr<ShootingObjective>(*std::move(objective));
+    }
+    case Strategy::kRoi: {
+      const int dx = model.state_dim();
+      if (absl::Status s = ValidateStateBounds(options_, dx, "roi"); !s.ok()) return s;
+      if (options_.roi_reference_points < 1) {
+        return absl::InvalidArgumentError("roi_reference_points must be >= 1");
+      }
+      if (reference_.rows() != options_.roi_reference_points) {
+        Eigen::VectorXd lower(model.z_dim()), upper(model.z_dim());
+        lower << options_.state_lower, options_.input_lower;
+        upper << options_.state_upper, options_.input_upper;
+        reference_ = HaltonReferenceSet(lower, upper, options_.roi_reference_points,
+                                        options_.seed);
+      }
+      auto objective = NegativeVarianceReductionObjective::Create(model, reference_);
+      if (!objective.ok()) return objective.status();
+      return std::unique_ptr<ShootingObjective>(*std::move(objective));
+    }
+    default:
+      return std::unique_ptr<ShootingObjective>(new NegativeEntropyObjective());
+  }
+}
+
+absl::StatusOr<Plan> Planner::PlanTrajectory(const gp::DynamicsPredictor& model,
+                                             const Eigen::VectorXd& x0, uint64_t call,
+                                             const std::function<bool()>& stop,
+                                             PlanSummary* summary) {
+  absl::StatusOr<std::unique_ptr<ShootingObjective>> objective = MakeObjective(model);
+  if (!objective.ok()) return objective.status();
   const int du = model.input_dim();
   const Eigen::VectorXd& lower = options_.input_lower;
   const Eigen::VectorXd& upper = options_.input_upper;
@@ -202,8 +251,7 @@ absl::StatusOr<Plan> Planner::PlanEntropy(const gp::DynamicsPredictor& model,
   settings.max_iterations = options_.max_iterations;
   settings.tolerance = options_.tolerance;
   settings.objective_scaling = kObjectiveScaling;
-  const NegativeEntropyObjective objective;
-  ShootingResult result = SolveFromStarts(model, objective, x0, lower, upper,
+  ShootingResult result = SolveFromStarts(model, **objective, x0, lower, upper,
                                           std::move(starts), settings, stop);
   if (!result.best.valid) {
     return absl::InternalError(
@@ -219,7 +267,7 @@ absl::StatusOr<Plan> Planner::PlanEntropy(const gp::DynamicsPredictor& model,
   summary->status = result.status;
   summary->iterations = result.iterations;
   summary->starts = result.starts;
-  summary->objective = Entropy(plan.variances);
+  summary->objective = -result.value;
   return plan;
 }
 

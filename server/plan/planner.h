@@ -4,11 +4,13 @@
 #include <Eigen/Dense>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 
 #include "absl/status/statusor.h"
 #include "server/gp/dynamics_predictor.h"
 #include "server/plan/plan_types.h"
+#include "server/plan/shooting_objective.h"
 
 namespace excite::plan {
 
@@ -17,7 +19,12 @@ namespace excite::plan {
 //  - kRec, kPa, kGreedy: the paper's problem (trajopt_optim) by direct multiple
 //    shooting with Ipopt: maximise sum_i H(x_i, u_i) s.t. x_{i+1} = mean(x_i, u_i),
 //    u_i in bounds. Keeps the previous plan to warm-start the next call (shifted by
-//    its apply_count). apply_count: 1 (rec, greedy) or M (pa).
+//    its apply_count). apply_count: 1 (rec, greedy, mi, roi) or M (pa).
+//  - kMi, kRoi: the same NLP and receding horizon with an information objective
+//    over the horizon's points jointly (information_objectives.h): mutual
+//    information, or the variance removed over a Halton reference set of
+//    roi_reference_points points in state x input bounds (roi needs state
+//    bounds). Both need a model with joint covariances (INVALID_ARGUMENT if not).
 //  - kPrbs, kChirp, kRandom: the open-loop signals (prbs_signal.h,
 //    chirp_signal.h, random_signal.h) at samples time_index .. time_index + M - 1;
 //    the model is never evaluated (it need not be fitted), states/variances have 0
@@ -49,16 +56,23 @@ class Planner {
   const PlanOptions& options() const { return options_; }
 
  private:
-  // rec, pa and greedy.
-  absl::StatusOr<Plan> PlanEntropy(const gp::DynamicsPredictor& model,
-                                   const Eigen::VectorXd& x0, uint64_t call,
-                                   const std::function<bool()>& stop,
-                                   PlanSummary* summary);
+  // rec, pa, greedy, mi and roi: one multiple-shooting NLP, the strategy's
+  // objective.
+  absl::StatusOr<Plan> PlanTrajectory(const gp::DynamicsPredictor& model,
+                                      const Eigen::VectorXd& x0, uint64_t call,
+                                      const std::function<bool()>& stop,
+                                      PlanSummary* summary);
+  // The objective of the strategy on this model (it reads the model: built per
+  // call).
+  absl::StatusOr<std::unique_ptr<ShootingObjective>> MakeObjective(
+      const gp::DynamicsPredictor& model);
   // prbs, chirp and random.
   Plan PlanSignal(int state_dim, int64_t time_index) const;
 
   PlanOptions options_;
   std::optional<Plan> previous_;
+  // roi's reference set (a function of the options only; made at the first plan).
+  Eigen::MatrixXd reference_;
   uint64_t calls_ = 0;
 };
 

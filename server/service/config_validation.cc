@@ -270,6 +270,28 @@ absl::Status ValidateSep(absl::string_view path, v1::SessionConfig* config) {
   return absl::OkStatus();
 }
 
+// RoiConfig, and roi's need for state_bounds (the box of its reference set).
+absl::Status ValidateRoi(absl::string_view path, v1::SessionConfig* config) {
+  const bool roi = config->strategy() == v1::STRATEGY_ROI;
+  if (roi && config->state_bounds_size() != config->state_dim()) {
+    return Invalid(Field(path, "state_bounds"),
+                   absl::StrCat("STRATEGY_ROI needs state_dim (", config->state_dim(),
+                                ") intervals (its reference set spans state_bounds x "
+                                "input_bounds), got ",
+                                config->state_bounds_size()));
+  }
+  if (!config->has_roi() && !roi) return absl::OkStatus();
+  int32_t points = config->roi().reference_points();
+  if (absl::Status s =
+          IntWithDefault(Field(Field(path, "roi"), "reference_points"), &points,
+                         plan::PlanOptions().roi_reference_points, 1, 4096);
+      !s.ok()) {
+    return s;
+  }
+  if (roi) config->mutable_roi()->set_reference_points(points);
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::Status ValidateHyperparameters(absl::string_view path,
@@ -394,6 +416,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
 
   if (absl::Status s = ValidateSignal(path, config); !s.ok()) return s;
   if (absl::Status s = ValidateSep(path, config); !s.ok()) return s;
+  if (absl::Status s = ValidateRoi(path, config); !s.ok()) return s;
   return ValidatePlanner(path, config->mutable_planner());
 }
 

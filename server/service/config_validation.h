@@ -38,7 +38,7 @@ inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
 //   kernel.restarts in [0, 100] (0: default 2); kernel.max_iterations in
 //     [0, 10000] (0: default 60);
 //   target: UNSPECIFIED -> DELTA; strategy: UNSPECIFIED -> REC; unknown values are
-//     rejected; STRATEGY_SEP requires state_dim state_bounds;
+//     rejected; STRATEGY_SEP and STRATEGY_ROI require state_dim state_bounds;
 //   horizon in [0, 200] (0: default 15); GREEDY forces 1;
 //   refit.every_samples in [0, 1000000] (0: default 1); refit.min_samples in
 //     {0} or [2, 1000000] (0: default 2; a fit needs 2 samples);
@@ -50,11 +50,12 @@ inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
 //     and chirp_end_frequency finite in (0, 0.5] (0: default 0.01, 0.2);
 //   sep (plan::SepOptions defaults): search_starts in [1, 100] (0: default 4),
 //     search_samples in [1, 100000] (0: default 256), search_iterations in
-//     [1, 10000] (0: default 50).
-//   signal and sep fields that are set are checked whatever the strategy, but
+//     [1, 10000] (0: default 50);
+//   roi: reference_points in [1, 4096] (0: default 256).
+//   signal, sep and roi fields that are set are checked whatever the strategy, but
 //   defaults are filled in only for the fields the session's strategy uses (prbs:
 //   prbs_min_hold; chirp: the chirp_* fields; random: random_hold; sep: all of
-//   sep), so other sessions' stored configs do not change.
+//   sep; roi: all of roi), so other sessions' stored configs do not change.
 // Note that proto3 cannot tell 0 from unset: 0 restarts cannot be requested.
 absl::Status ValidateSessionConfig(v1::SessionConfig* config,
                                    absl::string_view path = "config");

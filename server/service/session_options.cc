@@ -83,6 +83,12 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
     case v1::STRATEGY_SEP:
       options.strategy = plan::Strategy::kSep;
       break;
+    case v1::STRATEGY_MI:
+      options.strategy = plan::Strategy::kMi;
+      break;
+    case v1::STRATEGY_ROI:
+      options.strategy = plan::Strategy::kRoi;
+      break;
     default:
       options.strategy = plan::Strategy::kRec;
       break;
@@ -123,6 +129,9 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
   if (sep.search_samples() != 0) options.sep.search_samples = sep.search_samples();
   if (sep.search_iterations() != 0) {
     options.sep.search_iterations = sep.search_iterations();
+  }
+  if (config.roi().reference_points() != 0) {
+    options.roi_reference_points = config.roi().reference_points();
   }
   return options;
 }
