@@ -435,17 +435,34 @@ std::vector<Eigen::MatrixXd> DynamicsModel::PosteriorCovariance(
   return cov;
 }
 
-Eigen::MatrixXd DynamicsModel::PosteriorCovarianceGradient(
-    const PreparedPoints& a, const PreparedPoints& b,
-    const std::vector<Eigen::MatrixXd>& weights) const {
+Eigen::MatrixXd DynamicsModel::PosteriorVariance(const PreparedPoints& a) const {
   const State& s = *state_;
   const GpPreparedPoints& pa = AsGp(a);
-  const GpPreparedPoints& pb = AsGp(b);
+  Eigen::MatrixXd variance(pa.normalised.rows(), s.state_dim);
+  for (int j = 0; j < s.state_dim; ++j) {
+    // k(z, z) = signal variance for the SE kernel; clamped at 0 as Predict does.
+    variance.col(j) = s.out_std(j) * s.out_std(j) *
+                      (s.gps[j].hyperparameters().signal_variance -
+                       pa.factors[j].colwise().squaredNorm().transpose().array())
+                          .cwiseMax(0.0)
+                          .matrix();
+  }
+  return variance;
+}
+
+Eigen::MatrixXd DynamicsModel::PosteriorCovarianceGradient(
+    const PreparedPoints& a, const std::vector<CovarianceTerm>& terms) const {
+  const State& s = *state_;
+  const GpPreparedPoints& pa = AsGp(a);
   Eigen::MatrixXd grad = Eigen::MatrixXd::Zero(pa.normalised.rows(), s.z_dim);
   for (int j = 0; j < s.state_dim; ++j) {
+    std::vector<GpModel::CovarianceTerm> gp_terms;
+    for (const CovarianceTerm& t : terms) {
+      const GpPreparedPoints& pb = AsGp(*t.b);
+      gp_terms.push_back({&pb.normalised, &pb.factors[j], &(*t.weights)[j]});
+    }
     grad += s.out_std(j) * s.out_std(j) *
-            s.gps[j].PosteriorCovarianceGradient(pa.normalised, pb.normalised,
-                                                 pb.factors[j], weights[j]);
+            s.gps[j].PosteriorCovarianceGradient(pa.normalised, gp_terms);
   }
   // Normalised inputs: d / dz = (d / dz_n) / half_width.
   return grad * s.half_width.cwiseInverse().asDiagonal();

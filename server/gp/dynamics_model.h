@@ -112,9 +112,9 @@ class DynamicsModel final : public DynamicsPredictor {
   std::unique_ptr<PreparedPoints> PreparePoints(const Eigen::MatrixXd& z) const override;
   std::vector<Eigen::MatrixXd> PosteriorCovariance(
       const PreparedPoints& a, const PreparedPoints& b) const override;
+  Eigen::MatrixXd PosteriorVariance(const PreparedPoints& a) const override;
   Eigen::MatrixXd PosteriorCovarianceGradient(
-      const PreparedPoints& a, const PreparedPoints& b,
-      const std::vector<Eigen::MatrixXd>& weights) const override;
+      const PreparedPoints& a, const std::vector<CovarianceTerm>& terms) const override;
   Eigen::VectorXd ObservationNoiseVariances() const override { return noise_variances(); }
 
   // Noise variance of each output's target (data units), for "latent + noise".

@@ -53,15 +53,25 @@ class DynamicsPredictor {
     (void)b;
     return {};
   }
-  // Gradient w.r.t. the points of a (b held fixed) of
-  // sum_j sum_ik weights[j](i, k) cov_j(a_i, b_k): rows(a) x z_dim. For a weight
-  // on cov(a, a) with a symmetric weight matrix, pass b = a and twice the weights.
-  virtual Eigen::MatrixXd PosteriorCovarianceGradient(
-      const PreparedPoints& a, const PreparedPoints& b,
-      const std::vector<Eigen::MatrixXd>& weights) const {
-    (void)b;
-    (void)weights;
+  // Per point of a and output j, the latent posterior variance (rows(a) x
+  // state_dim, data units squared): the diagonal of PosteriorCovariance(a, a)
+  // at O(m n) instead of O(m^2 n).
+  virtual Eigen::MatrixXd PosteriorVariance(const PreparedPoints& a) const {
     (void)a;
+    return {};
+  }
+  // Gradient w.r.t. the points of a (every b held fixed) of
+  // sum_t sum_j sum_ik terms[t].weights[j](i, k) cov_j(a_i, b_t,k): rows(a) x
+  // z_dim. For a weight on cov(a, a) with a symmetric weight matrix, pass b = a
+  // and twice the weights. Terms are summed before the work that they share.
+  struct CovarianceTerm {
+    const PreparedPoints* b;
+    const std::vector<Eigen::MatrixXd>* weights;  // per output: rows(a) x rows(b)
+  };
+  virtual Eigen::MatrixXd PosteriorCovarianceGradient(
+      const PreparedPoints& a, const std::vector<CovarianceTerm>& terms) const {
+    (void)a;
+    (void)terms;
     return {};
   }
   // Noise variance of each output's observations (state_dim, data units): what a

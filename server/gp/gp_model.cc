@@ -258,19 +258,22 @@ Eigen::MatrixXd GpModel::PosteriorCovariance(const Eigen::MatrixXd& a,
   return k;
 }
 
-Eigen::MatrixXd GpModel::PosteriorCovarianceGradient(const Eigen::MatrixXd& a,
-                                                     const Eigen::MatrixXd& b,
-                                                     const Eigen::MatrixXd& b_factor,
-                                                     const Eigen::MatrixXd& w) const {
+Eigen::MatrixXd GpModel::PosteriorCovarianceGradient(
+    const Eigen::MatrixXd& a, const std::vector<CovarianceTerm>& terms) const {
   const Eigen::VectorXd& ls = hyperparameters_.lengthscales;
   const double sf2 = hyperparameters_.signal_variance;
   const Eigen::MatrixXd sa = ScaleInputs(a, ls);
-  // Prior part: d k(a_i, b_k) / d a_i = -k(a_i, b_k) (a_i - b_k) / l^2, weighted.
-  const Eigen::MatrixXd c = w.cwiseProduct(CrossCovariance(sa, ScaleInputs(b, ls), sf2));
-  Eigen::MatrixXd grad = c * b - a.cwiseProduct(c.rowwise().sum().replicate(1, a.cols()));
-  // Data part: -sum_k w_ik dV_{a_i}^T V_{b_k} = -dK(X, a_i)^T q_i with
-  // q = L^T \ (V_b w^T) (n x m_a).
-  Eigen::MatrixXd q = b_factor * w.transpose();
+  Eigen::MatrixXd grad = Eigen::MatrixXd::Zero(a.rows(), a.cols());
+  // q = L^T \ sum_t V_bt w_t^T (n x m_a), accumulated before the one solve.
+  Eigen::MatrixXd q = Eigen::MatrixXd::Zero(n_, a.rows());
+  for (const CovarianceTerm& t : terms) {
+    // Prior part: d k(a_i, b_k) / d a_i = -k(a_i, b_k) (a_i - b_k) / l^2, weighted.
+    const Eigen::MatrixXd c =
+        t.w->cwiseProduct(CrossCovariance(sa, ScaleInputs(*t.b, ls), sf2));
+    grad += c * *t.b - a.cwiseProduct(c.rowwise().sum().replicate(1, a.cols()));
+    q.noalias() += *t.b_factor * t.w->transpose();
+  }
+  // Data part: -sum_k w_ik dV_{a_i}^T V_{b_k} = -dK(X, a_i)^T q_i.
   UpperFactor().solveInPlace(q);
   const Eigen::MatrixXd e =
       CrossCovariance(sa, x_scaled_, sf2).cwiseProduct(q.transpose());

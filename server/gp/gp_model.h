@@ -2,6 +2,7 @@
 #define EXCITE_SERVER_GP_GP_MODEL_H_
 
 #include <Eigen/Dense>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "server/gp/hyperparameters.h"
@@ -77,13 +78,18 @@ class GpModel {
                                       const Eigen::MatrixXd& a_factor,
                                       const Eigen::MatrixXd& b,
                                       const Eigen::MatrixXd& b_factor) const;
-  // Gradient w.r.t. the points a (b held fixed) of sum_ik w(i, k) k_D(a_i, b_k):
-  // rows(a) x d, row i = d / d a_i. w: rows(a) x rows(b). For a symmetric weight on
-  // k_D(a, a), pass b = a and 2 w (k_D is symmetric). O(m_a n^2 + m_a m_b n).
-  Eigen::MatrixXd PosteriorCovarianceGradient(const Eigen::MatrixXd& a,
-                                              const Eigen::MatrixXd& b,
-                                              const Eigen::MatrixXd& b_factor,
-                                              const Eigen::MatrixXd& w) const;
+  // Gradient w.r.t. the points a (every b held fixed) of
+  // sum_t sum_ik w_t(i, k) k_D(a_i, b_t,k): rows(a) x d, row i = d / d a_i; each
+  // w_t is rows(a) x rows(b_t). For a symmetric weight on k_D(a, a), pass b = a
+  // and 2 w (k_D is symmetric). One triangular solve for all terms:
+  // O(m_a n^2 + sum_t m_a m_b n).
+  struct CovarianceTerm {
+    const Eigen::MatrixXd* b;         // m_b x d
+    const Eigen::MatrixXd* b_factor;  // CrossFactor(b)
+    const Eigen::MatrixXd* w;         // m_a x m_b
+  };
+  Eigen::MatrixXd PosteriorCovarianceGradient(
+      const Eigen::MatrixXd& a, const std::vector<CovarianceTerm>& terms) const;
 
  private:
   absl::Status Factorise();

@@ -82,7 +82,7 @@ double NegativeMutualInformationObjective::Evaluate(
     }
   }
   if (gradient != nullptr) {
-    *gradient = model_.PosteriorCovarianceGradient(*points, *points, weights);
+    *gradient = model_.PosteriorCovarianceGradient(*points, {{points.get(), &weights}});
   }
   return value;
 }
@@ -98,17 +98,16 @@ NegativeVarianceReductionObjective::Create(const gp::DynamicsPredictor& model,
         absl::StrCat("the reference set must be N >= 1 finite points of z_dim (",
                      model.z_dim(), ") entries"));
   }
-  Eigen::MatrixXd mean, variance;
-  model.Predict(reference, &mean, &variance, nullptr, nullptr);
-  const double total = variance.sum();
+  std::unique_ptr<gp::DynamicsPredictor::PreparedPoints> prepared =
+      model.PreparePoints(reference);
+  const double total = model.PosteriorVariance(*prepared).sum();
   if (!std::isfinite(total)) {
     return absl::InvalidArgumentError(
         "the model's variance over the reference set is not finite");
   }
   return std::unique_ptr<NegativeVarianceReductionObjective>(
-      new NegativeVarianceReductionObjective(model, *std::move(noise),
-                                             model.PreparePoints(reference),
-                                             std::max(total, 1e-300)));
+      new NegativeVarianceReductionObjective(
+          model, *std::move(noise), std::move(prepared), std::max(total, 1e-300)));
 }
 
 NegativeVarianceReductionObjective::NegativeVarianceReductionObjective(
@@ -150,8 +149,8 @@ double NegativeVarianceReductionObjective::Evaluate(
     }
   }
   if (gradient != nullptr) {
-    *gradient = model_.PosteriorCovarianceGradient(*points, *reference_, zr_weights) +
-                model_.PosteriorCovarianceGradient(*points, *points, zz_weights);
+    *gradient = model_.PosteriorCovarianceGradient(
+        *points, {{reference_.get(), &zr_weights}, {points.get(), &zz_weights}});
   }
   return value;
 }

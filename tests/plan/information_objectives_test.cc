@@ -152,7 +152,7 @@ TEST(PosteriorCovarianceTest, GradientMatchesCentralDifferences) {
     return c[0].cwiseProduct(w[0]).sum() + c[1].cwiseProduct(w[1]).sum();
   };
   const auto pa = model.PreparePoints(a);
-  ExpectGradientNear(model.PosteriorCovarianceGradient(*pa, *pb, w),
+  ExpectGradientNear(model.PosteriorCovarianceGradient(*pa, {{pb.get(), &w}}),
                      NumericGradient(cross, a));
   // Symmetric term: both arguments move, weights doubled.
   const auto symmetric = [&](const Eigen::MatrixXd& z) {
@@ -161,8 +161,13 @@ TEST(PosteriorCovarianceTest, GradientMatchesCentralDifferences) {
     return c[0].cwiseProduct(ws[0]).sum() + c[1].cwiseProduct(ws[1]).sum();
   };
   std::vector<Eigen::MatrixXd> doubled = {2.0 * ws[0], 2.0 * ws[1]};
-  ExpectGradientNear(model.PosteriorCovarianceGradient(*pa, *pa, doubled),
+  ExpectGradientNear(model.PosteriorCovarianceGradient(*pa, {{pa.get(), &doubled}}),
                      NumericGradient(symmetric, a));
+  // Both terms at once (one shared solve) are the sum of the two.
+  ExpectGradientNear(
+      model.PosteriorCovarianceGradient(*pa, {{pb.get(), &w}, {pa.get(), &doubled}}),
+      NumericGradient([&](const Eigen::MatrixXd& z) { return cross(z) + symmetric(z); },
+                      a));
 }
 
 TEST(MutualInformationTest, ClosedFormForOnePointAndNoDoubleCounting) {
