@@ -148,7 +148,7 @@ absl::StatusOr<v1::Strategy> ParseStrategy(absl::string_view name) {
   }
   return absl::InvalidArgumentError(
       absl::StrCat("unknown strategy \"", name,
-                   "\" (expected rec, pa, greedy, prbs, chirp, random or sep)"));
+                   "\" (expected rec, pa, greedy, prbs, chirp, random, sep, mi or roi)"));
 }
 
 std::string StrategyName(v1::Strategy strategy) {

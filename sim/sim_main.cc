@@ -24,7 +24,7 @@
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "excite-server address, HOST:PORT");
 ABSL_FLAG(std::string, config, "", "SimConfig textproto file (required)");
 ABSL_FLAG(std::string, strategy, "",
-          "rec, pa, greedy, sep, prbs, chirp or random; overrides the config's");
+          "rec, pa, greedy, sep, mi, roi, prbs, chirp or random; overrides the config's");
 ABSL_FLAG(int32_t, samples, 0, "transitions to collect; 0 keeps the config's");
 ABSL_FLAG(int64_t, seed, -1,
           "seed of the measurement noise and of the session; -1 keeps the config's "
