@@ -52,7 +52,9 @@ int MultipleShootingNlp::num_variables() const {
   return horizon_ * du_ + (horizon_ - 1) * dx_;
 }
 
-int MultipleShootingNlp::num_constraints() const { return (horizon_ - 1) * dx_; }
+int MultipleShootingNlp::num_constraints() const {
+  return (horizon_ - 1) * dx_ + (safe_.active() ? 2 * horizon_ * dx_ : 0);
+}
 
 Eigen::MatrixXd MultipleShootingNlp::InputsOf(const Eigen::VectorXd& w) const {
   Eigen::MatrixXd inputs(horizon_, du_);
@@ -83,6 +85,9 @@ bool MultipleShootingNlp::get_nlp_info(Ipopt::Index& n, Ipopt::Index& m,
   for (int i = 0; i + 1 < horizon_; ++i) {
     nnz_jac_g += dx_ * (1 + du_ + (i >= 1 ? dx_ : 0));
   }
+  if (safe_.active()) {
+    for (int i = 0; i < horizon_; ++i) nnz_jac_g += 2 * dx_ * (du_ + (i >= 1 ? dx_ : 0));
+  }
   nnz_h_lag = 0;  // limited-memory Hessian
   index_style = C_STYLE;
   return true;
@@ -102,8 +107,21 @@ bool MultipleShootingNlp::get_bounds_info(Ipopt::Index n, Ipopt::Number* x_l,
     x_l[k] = -kInfinity;
     x_u[k] = kInfinity;
   }
-  std::fill(g_l, g_l + m, 0.0);
-  std::fill(g_u, g_u + m, 0.0);
+  const int dynamics = (horizon_ - 1) * dx_;
+  std::fill(g_l, g_l + dynamics, 0.0);
+  std::fill(g_u, g_u + dynamics, 0.0);
+  if (safe_.active()) {
+    // Rows per (i, j): mean + margin sd <= upper, then mean - margin sd >= lower.
+    for (int i = 0; i < horizon_; ++i) {
+      for (int j = 0; j < dx_; ++j) {
+        const int row = dynamics + 2 * (i * dx_ + j);
+        g_l[row] = -kInfinity;
+        g_u[row] = safe_.upper(j);
+        g_l[row + 1] = safe_.lower(j);
+        g_u[row + 1] = kInfinity;
+      }
+    }
+  }
   return true;
 }
 
@@ -167,6 +185,19 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
     constraints_.segment(i * dx_, dx_) =
         w.segment(StateOffset(i + 1), dx_) - mean_.row(i).transpose();
   }
+  const int dynamics = (horizon_ - 1) * dx_;
+  // Safe box rows: sd and d sd / dz at every point.
+  Eigen::MatrixXd sd;
+  if (safe_.active()) {
+    sd = variance_.cwiseMax(kVarianceFloor).cwiseSqrt();
+    for (int i = 0; i < horizon_; ++i) {
+      for (int j = 0; j < dx_; ++j) {
+        const int row = dynamics + 2 * (i * dx_ + j);
+        constraints_(row) = mean_(i, j) + safe_.margin * sd(i, j);
+        constraints_(row + 1) = mean_(i, j) - safe_.margin * sd(i, j);
+      }
+    }
+  }
 
   // Values in the order of the structure written by eval_jac_g.
   std::vector<double> values;
@@ -181,11 +212,32 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
       for (int l = 0; l < du_; ++l) values.push_back(-jm(r, dx_ + l));
     }
   }
+  if (safe_.active()) {
+    for (int i = 0; i < horizon_; ++i) {
+      for (int j = 0; j < dx_; ++j) {
+        // d sd / dz = d var / dz / (2 sd); 0 where the variance is floored.
+        const double dsd_scale = variance_(i, j) > kVarianceFloor ? 0.5 / sd(i, j) : 0.0;
+        for (const double sign : {1.0, -1.0}) {
+          const Eigen::RowVectorXd d =
+              mean_jacobians_[i].row(j) +
+              sign * safe_.margin * dsd_scale * variance_jacobians_[i].row(j);
+          if (i >= 1) {
+            for (int l = 0; l < dx_; ++l) values.push_back(d(l));
+          }
+          for (int l = 0; l < du_; ++l) values.push_back(d(dx_ + l));
+        }
+      }
+    }
+  }
   jacobian_ = Eigen::Map<const Eigen::VectorXd>(values.data(),
                                                 static_cast<Eigen::Index>(values.size()));
   cache_finite_ = true;
 
-  const double violation = m > 0 ? constraints_.cwiseAbs().maxCoeff() : 0.0;
+  double violation =
+      dynamics > 0 ? constraints_.head(dynamics).cwiseAbs().maxCoeff() : 0.0;
+  if (safe_.active()) {
+    violation = std::max(violation, SafeBoxViolation(safe_, mean_, variance_));
+  }
   if (violation <= feasibility_tolerance_ && objective_ < best_feasible_objective_) {
     best_feasible_objective_ = objective_;
     best_feasible_ = w;
@@ -237,6 +289,24 @@ bool MultipleShootingNlp::eval_jac_g(Ipopt::Index n, const Ipopt::Number* x, boo
         for (int l = 0; l < du_; ++l) {
           iRow[k] = row;
           jCol[k++] = InputOffset(i) + l;
+        }
+      }
+    }
+    if (safe_.active()) {
+      const int dynamics = (horizon_ - 1) * dx_;
+      for (int i = 0; i < horizon_; ++i) {
+        for (int row = dynamics + 2 * i * dx_; row < dynamics + 2 * (i + 1) * dx_;
+             ++row) {
+          if (i >= 1) {
+            for (int l = 0; l < dx_; ++l) {
+              iRow[k] = row;
+              jCol[k++] = StateOffset(i) + l;
+            }
+          }
+          for (int l = 0; l < du_; ++l) {
+            iRow[k] = row;
+            jCol[k++] = InputOffset(i) + l;
+          }
         }
       }
     }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "server/gp/dynamics_predictor.h"
+#include "server/plan/safe_box.h"
 #include "server/plan/shooting_objective.h"
 
 namespace excite::plan {
@@ -23,8 +24,9 @@ namespace excite::plan {
 // exact: all values and Jacobians at an iterate come from ONE batched
 // DynamicsPredictor::Predict call of M points (cached per iterate). No Hessian:
 // use hessian_approximation = limited-memory. The model and the objective must
-// outlive the NLP. Keeps the best feasible point it evaluated (max |g| <=
-// feasibility_tolerance, lowest J), so a cut-short solve still has something good.
+// outlive the NLP. Keeps the best feasible point it evaluated (dynamics and safe
+// box violated by at most feasibility_tolerance, lowest J), so a cut-short solve
+// still has something good.
 class MultipleShootingNlp final : public Ipopt::TNLP {
  public:
   // Polled once per Ipopt iteration; true stops the solve (User_Requested_Stop).
@@ -46,6 +48,12 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
                       const Eigen::MatrixXd& initial_inputs,
                       const Eigen::MatrixXd& initial_states, StopFn stop = nullptr,
                       double feasibility_tolerance = 1e-6);
+
+  // State constraints (safe_box.h) on every predicted next state, as 2 M dx
+  // inequality rows after the dynamics rows: mean_j(z_i) +- margin sd_j(z_i)
+  // against the box, with exact Jacobians (d sd = d var / (2 sd); sd is floored
+  // at sqrt(kVarianceFloor)). Call before the solve.
+  void SetSafeBox(SafeBox box) { safe_ = std::move(box); }
 
   int horizon() const { return horizon_; }
   int num_variables() const;
@@ -117,6 +125,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   Eigen::MatrixXd initial_states_;
   StopFn stop_;
   const double feasibility_tolerance_;
+  SafeBox safe_;
 
   // Cache of the last evaluated iterate.
   bool cache_valid_ = false;

@@ -7,6 +7,8 @@
 #include <functional>
 #include <optional>
 
+#include "server/plan/safe_box.h"
+
 namespace excite::plan {
 
 // The exploration strategies (paper, Sections 4-6). rec, pa, greedy and sep use
@@ -68,6 +70,9 @@ struct PlanOptions {
   SepOptions sep;
   // kRoi: points of the reference set over state x input bounds (>= 1).
   int roi_reference_points = 256;
+  // State constraints on the planned mean trajectory of every model-based
+  // strategy (inactive by default).
+  SafeBox safe_box;
 };
 
 // Limits of one call: the best plan so far is returned when one is hit.
@@ -99,6 +104,10 @@ struct PlanSummary {
   // roi; 0 for the model-free strategies.
   double objective = 0.0;
   double wall_time_ms = 0.0;
+  // With a safe box: how far the returned plan's predictions violate it (state
+  // units, margin included); 0 if it keeps the box (no feasible plan was found
+  // otherwise: the plan is the least violating one).
+  double safe_box_violation = 0.0;
   // kSep only: the searched z* = (x*, u*) and its entropy H(z*) (nats).
   Eigen::VectorXd search_point;
   double search_entropy = 0.0;

@@ -118,6 +118,15 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
         "max_iterations and restarts must be >= 0, tolerance > 0");
   }
   if (time_index < 0) return absl::InvalidArgumentError("time_index must be >= 0");
+  const SafeBox& box = options_.safe_box;
+  if (box.active() &&
+      (box.lower.size() != dx || box.upper.size() != dx || !box.lower.allFinite() ||
+       !box.upper.allFinite() || !(box.lower.array() < box.upper.array()).all() ||
+       !(box.margin >= 0.0) || !std::isfinite(box.margin))) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("the safe box needs state_dim (", dx,
+                     ") finite intervals with lower < upper and a finite margin >= 0"));
+  }
   if (absl::Status s = ValidateSignal(options_.signal, options_.strategy); !s.ok()) {
     return s;
   }
@@ -261,6 +270,7 @@ absl::StatusOr<Plan> Planner::PlanTrajectory(const gp::DynamicsPredictor& model,
       options_.strategy == Strategy::kMi || options_.strategy == Strategy::kRoi
           ? kInformationObjectiveScaling
           : kObjectiveScaling;
+  settings.safe_box = options_.safe_box;
   ShootingResult result = SolveFromStarts(model, **objective, x0, lower, upper,
                                           std::move(starts), settings, stop);
   if (!result.best.valid) {
@@ -278,6 +288,7 @@ absl::StatusOr<Plan> Planner::PlanTrajectory(const gp::DynamicsPredictor& model,
   summary->iterations = result.iterations;
   summary->starts = result.starts;
   summary->objective = -result.value;
+  summary->safe_box_violation = result.safe_box_violation;
   return plan;
 }
 

@@ -45,6 +45,15 @@ absl::StatusOr<Plan> PlanSeparated(const gp::DynamicsPredictor& model,
   Eigen::VectorXd box_upper(dx + du);
   box_lower << state_lower, input_lower;
   box_upper << state_upper, input_upper;
+  // With a safe box, search only where the plant may go: region x safe box.
+  const SafeBox& safe = options.safe_box;
+  if (safe.active()) {
+    const Eigen::VectorXd lo = state_lower.cwiseMax(safe.lower);
+    const Eigen::VectorXd hi = state_upper.cwiseMin(safe.upper);
+    const bool overlap = (lo.array() < hi.array()).all();
+    box_lower.head(dx) = overlap ? lo : safe.lower;
+    box_upper.head(dx) = overlap ? hi : safe.upper;
+  }
   EntropySearchOptions search_options;
   search_options.starts = options.sep.search_starts;
   search_options.samples = options.sep.search_samples;
@@ -80,6 +89,7 @@ absl::StatusOr<Plan> PlanSeparated(const gp::DynamicsPredictor& model,
   ShootingSettings settings;
   settings.max_iterations = options.max_iterations;
   settings.tolerance = options.tolerance;
+  settings.safe_box = safe;
   const ShootingResult steered = SolveFromStarts(
       model, steering, x0, input_lower, input_upper, std::move(starts), settings, stop);
   if (!steered.best.valid) {
@@ -105,12 +115,28 @@ absl::StatusOr<Plan> PlanSeparated(const gp::DynamicsPredictor& model,
     return absl::InternalError(
         "sep: the model's predictions are not finite along the plan");
   }
+  // u* was searched in the box, not planned under the safe box: if it would leave
+  // the box, apply the steering plan's own next input instead (a prefix of a plan
+  // that keeps the box keeps it).
+  if (safe.active() && SafeBoxViolation(safe, final_plan.means, final_plan.variances) >
+                           steered.safe_box_violation) {
+    if (closest < steered.best.inputs.rows()) {
+      inputs.row(closest) = steered.best.inputs.row(closest);
+    } else {
+      inputs = steered.best.inputs;  // the whole steering plan, without u*
+    }
+    final_plan = RollOut(model, x0, inputs);
+    if (!final_plan.valid) {
+      return absl::InternalError(
+          "sep: the model's predictions are not finite along the plan");
+    }
+  }
 
   Plan plan;
   plan.inputs = std::move(final_plan.inputs);
   plan.states = std::move(final_plan.states);
   plan.variances = std::move(final_plan.variances);
-  plan.apply_count = closest + 1;
+  plan.apply_count = static_cast<int>(plan.inputs.rows());
   if (summary != nullptr) {
     summary->status = search.stopped ? PlanStatus::kTimeLimit : steered.status;
     summary->iterations = search.iterations + steered.iterations;
@@ -118,6 +144,8 @@ absl::StatusOr<Plan> PlanSeparated(const gp::DynamicsPredictor& model,
     summary->objective = Entropy(plan.variances);
     summary->search_point = search.z;
     summary->search_entropy = search.entropy;
+    summary->safe_box_violation =
+        SafeBoxViolation(safe, final_plan.means, plan.variances);
   }
   return plan;
 }

@@ -44,8 +44,13 @@ ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
   const auto consider = [&](Rollout r, int start) {
     if (!r.valid) return;
     const double value = RolloutObjective(objective, r);
-    if (std::isfinite(value) && value < result.value) {
+    if (!std::isfinite(value)) return;
+    const double violation = SafeBoxViolation(settings.safe_box, r.means, r.variances);
+    const bool better = result.best_start < 0 || violation < result.safe_box_violation ||
+                        (violation == result.safe_box_violation && value < result.value);
+    if (better) {
       result.value = value;
+      result.safe_box_violation = violation;
       result.best = std::move(r);
       result.best_start = start;
     }
@@ -76,6 +81,7 @@ ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
     const Eigen::Index horizon = starts[s].rows();
     Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
         model, objective, x0, lower, upper, starts[s], initial_states[s], stopped);
+    nlp->SetSafeBox(settings.safe_box);
     IpoptSettings ipopt;
     ipopt.max_iterations = settings.max_iterations;
     ipopt.tolerance = settings.tolerance;

@@ -9,6 +9,7 @@
 #include "server/gp/dynamics_predictor.h"
 #include "server/plan/plan_types.h"
 #include "server/plan/rollout.h"
+#include "server/plan/safe_box.h"
 #include "server/plan/shooting_objective.h"
 
 namespace excite::plan {
@@ -17,11 +18,14 @@ struct ShootingSettings {
   int max_iterations = 100;        // Ipopt iterations per start
   double tolerance = 1e-4;         // Ipopt tol
   double objective_scaling = 1.0;  // Ipopt obj_scaling_factor
+  SafeBox safe_box;                // state constraints (inactive by default)
 };
 
 struct ShootingResult {
   Rollout best;  // best.valid is false if no start had a finite rollout
   double value = std::numeric_limits<double>::infinity();  // objective of `best`
+  // SafeBoxViolation of `best` (0 when it keeps the box or no box is set).
+  double safe_box_violation = 0.0;
   int best_start = -1;
   // kTimeLimit if `stop` ended the starts, otherwise how the Ipopt solve of the
   // best rollout's start ended (kNotConverged if it came from an unsolved start).
@@ -39,8 +43,10 @@ struct ShootingResult {
 // analytic first derivatives and a limited-memory Hessian), and the NLP's best
 // feasible and final points are rolled out again (inputs clipped into the bounds).
 // Returns the rollout with the lowest objective (evaluated on the rollout, where
-// the dynamics hold exactly). `stop` is polled before each start and at every
-// Ipopt iteration; once it fires no further start is solved.
+// the dynamics hold exactly); with an active safe box, a rollout that keeps it
+// (violation <= kSafeBoxTolerance) beats any that does not, and among those that do not
+// the smallest violation wins. `stop` is polled before each start and at every Ipopt
+// iteration; once it fires no further start is solved.
 ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
                                const ShootingObjective& objective,
                                const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,
