@@ -134,4 +134,14 @@ absl::StatusOr<Coverage> ComputeCoverage(const Eigen::MatrixXd& visited,
   return coverage;
 }
 
+double FractionOutside(const Eigen::MatrixXd& visited, const Box& box) {
+  if (visited.rows() == 0) return 0.0;
+  Eigen::Index outside = 0;
+  for (Eigen::Index i = 0; i < visited.rows(); ++i) {
+    const Eigen::ArrayXd x = visited.row(i).transpose().array();
+    if ((x < box.lower.array()).any() || (x > box.upper.array()).any()) ++outside;
+  }
+  return static_cast<double>(outside) / static_cast<double>(visited.rows());
+}
+
 }  // namespace excite::sim

@@ -64,6 +64,11 @@ absl::StatusOr<Coverage> ComputeCoverage(const Eigen::MatrixXd& visited,
                                          const Box& region, int marginal_bins,
                                          int joint_bins);
 
+// Fraction of the rows of `visited` (n x state_dim) with any coordinate outside
+// [box.lower, box.upper] (bounds included in the box); 0 if there are no rows.
+// The shapes must match (a precondition). O(n state_dim).
+double FractionOutside(const Eigen::MatrixXd& visited, const Box& box);
+
 }  // namespace excite::sim
 
 #endif  // EXCITE_SIM_EVALUATION_H_

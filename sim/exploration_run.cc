@@ -166,6 +166,15 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   summary_.plans = static_cast<int64_t>(plan_ms_.size());
   summary_.random_steps = random_steps_;
   summary_.plan_retries = plan_retries_;
+  if (const v1::SafetyConfig& safety = config_.session().safety();
+      safety.state_bounds_size() == dx_) {
+    Box safe{Eigen::VectorXd(dx_), Eigen::VectorXd(dx_)};
+    for (int j = 0; j < dx_; ++j) {
+      safe.lower(j) = safety.state_bounds(j).lower();
+      safe.upper(j) = safety.state_bounds(j).upper();
+    }
+    summary_.left_safe_box = FractionOutside(visited, safe);
+  }
   summary_.wall_s = MillisecondsSince(start) / 1000.0;
   return summary_;
 }

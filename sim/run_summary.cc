@@ -58,6 +58,8 @@ std::string RunSummaryToJson(const RunSummary& summary) {
   history += "]";
   const std::string joint =
       summary.coverage_joint.has_value() ? JsonNumber(*summary.coverage_joint) : "null";
+  const std::string left_safe_box =
+      summary.left_safe_box.has_value() ? JsonNumber(*summary.left_safe_box) : "null";
   return absl::StrCat("{\n",                                                    //
                       "  \"system\": ", JsonString(summary.system), ",\n",      //
                       "  \"strategy\": ", JsonString(summary.strategy), ",\n",  //
@@ -72,6 +74,7 @@ std::string RunSummaryToJson(const RunSummary& summary) {
                       "  \"plans\": ", summary.plans, ",\n",                //
                       "  \"random_steps\": ", summary.random_steps, ",\n",  //
                       "  \"plan_retries\": ", summary.plan_retries, ",\n",  //
+                      "  \"left_safe_box\": ", left_safe_box, ",\n",        //
                       "  \"wall_s\": ", JsonNumber(summary.wall_s), "\n",   //
                       "}\n");
 }

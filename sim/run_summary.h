@@ -20,7 +20,7 @@ struct RmsePoint {
 // measured and evaluation.h for the metrics' definitions).
 struct RunSummary {
   std::string system;
-  std::string strategy;  // "rec", "pa" or "greedy".
+  std::string strategy;  // StrategyName: "rec", "pa", "mi", ...
   std::string session;   // "sessions/{id}".
   int64_t samples = 0;   // Transitions collected and stored.
   double final_rmse = 0.0;
@@ -31,13 +31,17 @@ struct RunSummary {
   int64_t plans = 0;                     // Successful PlanInputs calls.
   int64_t random_steps = 0;              // Random inputs applied before min_samples.
   int64_t plan_retries = 0;              // PlanInputs retried after DEADLINE_EXCEEDED.
-  double wall_s = 0.0;                   // Wall time of the whole run [s].
+  // With a safe box (session.safety.state_bounds): the fraction of visited (true)
+  // states outside it, in [0, 1]; not set without a box.
+  std::optional<double> left_safe_box;
+  double wall_s = 0.0;  // Wall time of the whole run [s].
 };
 
 // The summary as one JSON object with the keys system, strategy, session, samples,
 // final_rmse, coverage_marginal, coverage_joint, rmse_history ([[samples, rmse], ...]),
-// plan_ms_p50, plans, random_steps, plan_retries, wall_s. Non-finite numbers and a
-// missing coverage_joint are written as null. Ends with a newline.
+// plan_ms_p50, plans, random_steps, plan_retries, left_safe_box, wall_s. Non-finite
+// numbers and a missing coverage_joint or left_safe_box are written as null. Ends with a
+// newline.
 std::string RunSummaryToJson(const RunSummary& summary);
 
 // Writes RunSummaryToJson(summary) to `path` (replacing it). INTERNAL naming the

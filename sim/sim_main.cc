@@ -106,6 +106,10 @@ int Main() {
           ? absl::StrFormat("%.3f", *summary->coverage_joint)
           : "n/a",
       summary->plan_ms_p50, summary->wall_s);
+  if (summary->left_safe_box.has_value()) {
+    std::cout << absl::StrFormat("visited states outside the safe box: %.1f %%\n",
+                                 100.0 * *summary->left_safe_box);
+  }
   if (const std::string path = absl::GetFlag(FLAGS_summary); !path.empty()) {
     if (absl::Status s = WriteRunSummary(*summary, path); !s.ok()) return Fail(s);
     std::cout << "summary written to " << path << "\n";

@@ -292,6 +292,38 @@ absl::Status ValidateRoi(absl::string_view path, v1::SessionConfig* config) {
   return absl::OkStatus();
 }
 
+// SafetyConfig: 0 or state_dim intervals; the margin filled in (2) when a box
+// is set.
+absl::Status ValidateSafety(absl::string_view path, v1::SessionConfig* config) {
+  if (!config->has_safety()) return absl::OkStatus();
+  const std::string spath = Field(path, "safety");
+  v1::SafetyConfig* safety = config->mutable_safety();
+  if (safety->state_bounds_size() != 0 &&
+      safety->state_bounds_size() != config->state_dim()) {
+    return Invalid(Field(spath, "state_bounds"),
+                   absl::StrCat("must have 0 or state_dim (", config->state_dim(),
+                                ") entries, got ", safety->state_bounds_size()));
+  }
+  for (int i = 0; i < safety->state_bounds_size(); ++i) {
+    if (absl::Status s =
+            CheckInterval(Indexed(spath, "state_bounds", i), safety->state_bounds(i));
+        !s.ok()) {
+      return s;
+    }
+  }
+  if (safety->has_margin() &&
+      !(std::isfinite(safety->margin()) && safety->margin() >= 0.0 &&
+        safety->margin() <= kMaxSafetyMargin)) {
+    return Invalid(Field(spath, "margin"),
+                   absl::StrCat("must be finite in [0, ", kMaxSafetyMargin,
+                                "] standard deviations, got ", safety->margin()));
+  }
+  if (safety->state_bounds_size() > 0 && !safety->has_margin()) {
+    safety->set_margin(plan::SafeBox().margin);
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::Status ValidateHyperparameters(absl::string_view path,
@@ -417,6 +449,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
   if (absl::Status s = ValidateSignal(path, config); !s.ok()) return s;
   if (absl::Status s = ValidateSep(path, config); !s.ok()) return s;
   if (absl::Status s = ValidateRoi(path, config); !s.ok()) return s;
+  if (absl::Status s = ValidateSafety(path, config); !s.ok()) return s;
   return ValidatePlanner(path, config->mutable_planner());
 }
 

@@ -12,6 +12,8 @@ namespace excite::service {
 inline constexpr int kMaxStateDim = 64;
 inline constexpr int kMaxInputDim = 32;
 inline constexpr int kMaxHorizon = 200;
+// Largest safety.margin (standard deviations).
+inline constexpr double kMaxSafetyMargin = 10.0;
 
 // Defaults the proto documents that have no home in the engine's option structs.
 inline constexpr double kDefaultTimeBudgetS = 10.0;  // planner.time_budget_s
@@ -51,7 +53,9 @@ inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
 //   sep (plan::SepOptions defaults): search_starts in [1, 100] (0: default 4),
 //     search_samples in [1, 100000] (0: default 256), search_iterations in
 //     [1, 10000] (0: default 50);
-//   roi: reference_points in [1, 4096] (0: default 256).
+//   roi: reference_points in [1, 4096] (0: default 256);
+//   safety: state_bounds 0 or state_dim intervals, finite, lower < upper; margin
+//     finite in [0, kMaxSafetyMargin] (unset with a box: 2).
 //   signal, sep and roi fields that are set are checked whatever the strategy, but
 //   defaults are filled in only for the fields the session's strategy uses (prbs:
 //   prbs_min_hold; chirp: the chirp_* fields; random: random_hold; sep: all of

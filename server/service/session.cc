@@ -447,6 +447,7 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
   response.set_solver_status(ToProto(summary.status));
   response.set_iterations(summary.iterations);
   response.set_wall_time_ms(summary.wall_time_ms);
+  response.set_safe_box_violation(summary.safe_box_violation);
   response.set_model_version(model_version_);
   return response;
 }

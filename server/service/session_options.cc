@@ -130,6 +130,16 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
   if (sep.search_iterations() != 0) {
     options.sep.search_iterations = sep.search_iterations();
   }
+  const v1::SafetyConfig& safety = config.safety();
+  if (safety.state_bounds_size() == config.state_dim()) {
+    options.safe_box.lower.resize(config.state_dim());
+    options.safe_box.upper.resize(config.state_dim());
+    for (int i = 0; i < safety.state_bounds_size(); ++i) {
+      options.safe_box.lower(i) = safety.state_bounds(i).lower();
+      options.safe_box.upper(i) = safety.state_bounds(i).upper();
+    }
+    if (safety.has_margin()) options.safe_box.margin = safety.margin();
+  }
   if (config.roi().reference_points() != 0) {
     options.roi_reference_points = config.roi().reference_points();
   }

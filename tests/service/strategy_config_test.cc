@@ -1,5 +1,6 @@
 // Config validation of the strategies added after rec/pa/greedy: prbs, chirp,
-// random (SignalConfig) and sep (SepConfig, state_bounds).
+// random (SignalConfig), sep (SepConfig, state_bounds), mi, roi (RoiConfig,
+// state_bounds), and the safe box of every model-based strategy (SafetyConfig).
 #include <cmath>
 #include <string>
 
@@ -158,6 +159,70 @@ TEST(StrategyConfigTest, PlanOptionsFromConfig) {
             plan::Strategy::kPrbs);
   EXPECT_EQ(PlanOptionsFromConfig(Config(v1::STRATEGY_RANDOM)).strategy,
             plan::Strategy::kRandom);
+}
+
+TEST(StrategyConfigTest, MiAndRoi) {
+  v1::SessionConfig c = Config(v1::STRATEGY_ROI);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.roi().reference_points(), 256);
+  plan::PlanOptions o = PlanOptionsFromConfig(c);
+  EXPECT_EQ(o.strategy, plan::Strategy::kRoi);
+  EXPECT_EQ(o.roi_reference_points, 256);
+  c = Config(v1::STRATEGY_ROI);
+  c.mutable_roi()->set_reference_points(4097);
+  ExpectInvalid(c, "config.roi.reference_points", "[1, 4096]");
+  c = Config(v1::STRATEGY_ROI);
+  c.clear_state_bounds();
+  ExpectInvalid(c, "config.state_bounds", "STRATEGY_ROI needs state_dim (2)");
+  c = Config(v1::STRATEGY_ROI);
+  c.mutable_roi()->set_reference_points(64);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(PlanOptionsFromConfig(c).roi_reference_points, 64);
+
+  c = Config(v1::STRATEGY_MI);
+  c.clear_state_bounds();
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_FALSE(c.has_roi());
+  EXPECT_EQ(PlanOptionsFromConfig(c).strategy, plan::Strategy::kMi);
+}
+
+TEST(StrategyConfigTest, SafeBox) {
+  v1::SessionConfig c = Config(v1::STRATEGY_REC);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_FALSE(c.has_safety());
+  EXPECT_FALSE(PlanOptionsFromConfig(c).safe_box.active());
+
+  c = Config(v1::STRATEGY_REC);
+  v1::Interval* theta = c.mutable_safety()->add_state_bounds();
+  theta->set_lower(-1.0);
+  theta->set_upper(1.0);
+  v1::Interval* omega = c.mutable_safety()->add_state_bounds();
+  omega->set_lower(-4.0);
+  omega->set_upper(5.0);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.safety().margin(), 2.0);  // the default is filled in
+  plan::PlanOptions o = PlanOptionsFromConfig(c);
+  ASSERT_TRUE(o.safe_box.active());
+  EXPECT_EQ(o.safe_box.lower(1), -4.0);
+  EXPECT_EQ(o.safe_box.upper(1), 5.0);
+  EXPECT_EQ(o.safe_box.margin, 2.0);
+  // An explicit 0 margin is kept (proto3 optional).
+  c.mutable_safety()->set_margin(0.0);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(PlanOptionsFromConfig(c).safe_box.margin, 0.0);
+
+  v1::SessionConfig bad = c;
+  bad.mutable_safety()->set_margin(11.0);
+  ExpectInvalid(bad, "config.safety.margin", "[0, 10]");
+  bad = c;
+  bad.mutable_safety()->set_margin(std::nan(""));
+  ExpectInvalid(bad, "config.safety.margin");
+  bad = c;
+  bad.mutable_safety()->mutable_state_bounds(1)->set_upper(-5.0);
+  ExpectInvalid(bad, "config.safety.state_bounds[1]");
+  bad = c;
+  bad.mutable_safety()->mutable_state_bounds()->RemoveLast();
+  ExpectInvalid(bad, "config.safety.state_bounds", "0 or state_dim (2)");
 }
 
 }  // namespace

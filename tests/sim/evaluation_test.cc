@@ -101,6 +101,17 @@ TEST(EvaluationSetTest, Errors) {
             absl::StatusCode::kInvalidArgument);
 }
 
+TEST(FractionOutsideTest, HandComputed) {
+  const Box box{Eigen::Vector2d(-1.0, 0.0), Eigen::Vector2d(1.0, 2.0)};
+  Eigen::MatrixXd visited(4, 2);
+  visited << 0.0, 1.0,  // inside
+      1.0, 2.0,         // on the upper corner: inside
+      -1.5, 1.0,        // left of the box
+      0.0, 2.5;         // above it
+  EXPECT_DOUBLE_EQ(FractionOutside(visited, box), 0.5);
+  EXPECT_EQ(FractionOutside(Eigen::MatrixXd(0, 2), box), 0.0);
+}
+
 TEST(CoverageTest, HandComputedTwoDimensions) {
   // Region [0, 1] x [0, 1].
   Eigen::MatrixXd visited(4, 2);

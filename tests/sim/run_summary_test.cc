@@ -42,6 +42,7 @@ TEST(RunSummaryTest, Json) {
             "  \"plans\": 18,\n"
             "  \"random_steps\": 2,\n"
             "  \"plan_retries\": 0,\n"
+            "  \"left_safe_box\": null,\n"
             "  \"wall_s\": 3\n"
             "}\n");
 }
@@ -55,6 +56,13 @@ TEST(RunSummaryTest, NullForMissingJointAndNonFinite) {
   EXPECT_NE(json.find("\"coverage_joint\": null"), std::string::npos);
   EXPECT_NE(json.find("\"final_rmse\": null"), std::string::npos);
   EXPECT_NE(json.find("[[10, null]]"), std::string::npos);
+}
+
+TEST(RunSummaryTest, FractionOutsideTheSafeBox) {
+  RunSummary summary = Example();
+  summary.left_safe_box = 0.125;
+  EXPECT_NE(RunSummaryToJson(summary).find("\"left_safe_box\": 0.125,"),
+            std::string::npos);
 }
 
 TEST(RunSummaryTest, RoundTripsDoublesExactly) {
