@@ -111,6 +111,57 @@ def history_stats(trials):
     return out
 
 
+def samples_to_reach(rows, target):
+    """The first sample count at which a mean RMSE curve (history_stats rows,
+    (samples, mean, std, n) sorted by samples) is at or below `target`; None if it
+    never is (or there is no target)."""
+    if target is None:
+        return None
+    for samples, mean, _, _ in rows:
+        if mean <= target:
+            return samples
+    return None
+
+
+def sample_efficiency(stats, history, systems, strategies, reference="rec"):
+    """{system: {strategy: samples or None}}: how many samples each strategy's mean
+    RMSE curve needs to reach the reference strategy's final mean RMSE (None: not
+    reached, or no reference in that system)."""
+    table = {}
+    for system in systems:
+        entry = stats.get((system, reference))
+        target = entry["rmse"]["mean"] if entry is not None else None
+        table[system] = {
+            strategy: samples_to_reach(history.get((system, strategy), []), target)
+            for strategy in strategies
+        }
+    return table
+
+
+def sample_efficiency_section(efficiency, systems, strategies, labels,
+                              reference_label="rec"):
+    """Markdown rows (a title row, then one per strategy) of sample_efficiency():
+    the fewest samples in bold, "not reached" where a curve never gets there."""
+    lines = ["| **Samples to reach " + reference_label + "'s final RMSE** |" +
+             " |" * len(systems)]
+    best = {}
+    for system in systems:
+        reached = {s: v for s, v in efficiency[system].items() if v is not None}
+        best[system] = min(reached.values()) if reached else None
+    for strategy in strategies:
+        row = [labels.get(strategy, strategy)]
+        for system in systems:
+            value = efficiency[system].get(strategy)
+            if value is None:
+                row.append("not reached")
+            elif value == best[system]:
+                row.append(f"**{value}**")
+            else:
+                row.append(str(value))
+        lines.append("| " + " | ".join(row) + " |")
+    return lines
+
+
 def best_in_column(cells, lower_is_better, decimals):
     """Which of `cells` ({row: mean or None}) are best: the lowest (or highest) mean,
     compared as displayed with `decimals` places, so that two cells that read the
@@ -177,12 +228,14 @@ def _section(title, stats, systems, strategies, labels, metric, scale,
 
 
 def markdown_table(stats, systems, strategies, system_labels=None,
-                   strategy_labels=None, joint=True):
+                   strategy_labels=None, joint=True, history=None, reference="rec"):
     """The paper's Table in markdown: columns are systems, rows strategies, in two
     sections (final RMSE; coverage of the region in percent, marginal), each cell
     mean ± std over the trials, best per column in bold (lowest RMSE, highest
     coverage). With joint=True a third section gives the joint coverage (only
-    defined for state_dim <= 4; other columns read n/a)."""
+    defined for state_dim <= 4; other columns read n/a). With `history`
+    (history_stats) and the reference strategy among `strategies`, a last section
+    gives the samples each strategy needs to reach the reference's final RMSE."""
     system_labels = system_labels or {}
     strategy_labels = strategy_labels or {}
     header = "| |" + "".join(f" {system_labels.get(s, s)} |" for s in systems)
@@ -197,6 +250,11 @@ def markdown_table(stats, systems, strategies, system_labels=None,
         lines += _section("Coverage, joint cells (% of region)", stats, systems,
                           strategies, strategy_labels, "coverage_joint", 100.0,
                           lower_is_better=False, fixed_decimals=1)
+    if history is not None and reference in strategies:
+        lines += sample_efficiency_section(
+            sample_efficiency(stats, history, systems, strategies, reference),
+            systems, strategies, strategy_labels,
+            strategy_labels.get(reference, reference))
     return "\n".join(lines) + "\n"
 
 

@@ -601,7 +601,7 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
         "joint_bins^dx cells (n/a for dx > 4); see sim/README.md.",
         "",
         aggregate.markdown_table(stats, shown_systems, shown_strats, sys_labels,
-                                 st_labels),
+                                 st_labels, history=history),
         "Trials (succeeded/planned):",
         "",
         aggregate.trial_count_table(stats, planned, shown_systems, shown_strats,

@@ -74,8 +74,11 @@ struct DynamicsModel::State {
   bool normalisation_resolved = false;
   Eigen::VectorXd center;
   Eigen::VectorXd half_width;
-  // Output standardisation (refreshed at every Refit()).
-  Eigen::VectorXd out_mean;
+  // Prior mean of each output: the mean of all targets, refreshed at every
+  // AddSamples() so that it depends on the data only.
+  Eigen::VectorXd prior_mean;
+  // Output scale of the fit's normalised units (refreshed at every Refit()); the
+  // model in data units does not depend on it.
   Eigen::VectorXd out_std;
   std::vector<GpModel> gps;
   std::vector<Hyperparameters> data_hyperparameters;
@@ -85,6 +88,10 @@ struct DynamicsModel::State {
   double FixedNoise() const {
     return options.target == Target::kDelta ? 2.0 * options.measurement_noise_variance
                                             : options.measurement_noise_variance;
+  }
+  // Targets of output j centred on the prior mean and divided by `scale`.
+  Eigen::VectorXd StandardisedTargets(int j, double scale) const {
+    return (targets.col(j).array() - prior_mean(j)) / scale;
   }
   Eigen::MatrixXd Normalise(const Eigen::MatrixXd& raw) const {
     return (raw.rowwise() - center.transpose()) * half_width.cwiseInverse().asDiagonal();
@@ -135,6 +142,7 @@ absl::StatusOr<DynamicsModel> DynamicsModel::Create(DynamicsModelOptions options
   state->z_dim = z_dim;
   state->z.resize(0, z_dim);
   state->targets.resize(0, options.state_dim);
+  state->prior_mean = Eigen::VectorXd::Zero(options.state_dim);
   state->options = std::move(options);
   return DynamicsModel(std::move(state));
 }
@@ -178,22 +186,41 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
   s.targets.conservativeResize(n + m, Eigen::NoChange);
   s.targets.bottomRows(m) = t;
   s.samples_since_fit += static_cast<int>(m);
+  // Recomputed from all targets (not updated incrementally), so a model rebuilt
+  // from the same data has bit-identical prior means.
+  s.prior_mean = s.targets.colwise().mean().transpose();
   if (!s.fitted) return absl::OkStatus();
-  // O(n^2) row appends with the current normalisation and hyperparameters.
+  // O(n^2) row appends with the current normalisation and hyperparameters, then
+  // every target re-centred on the new prior mean (two O(n^2) solves).
   const Eigen::MatrixXd zn = s.Normalise(z);
   for (int j = 0; j < s.state_dim; ++j) {
-    for (Eigen::Index i = 0; i < m; ++i) {
-      const double y = (t(i, j) - s.out_mean(j)) / s.out_std(j);
-      if (absl::Status st = s.gps[j].AddSample(zn.row(i).transpose(), y); !st.ok()) {
-        s.fitted = false;  // Refit() rebuilds from the stored data.
-        return st;
-      }
+    absl::Status st;
+    for (Eigen::Index i = 0; i < m && st.ok(); ++i) {
+      st = s.gps[j].AddSample(zn.row(i).transpose(),
+                              (t(i, j) - s.prior_mean(j)) / s.out_std(j));
+    }
+    if (st.ok()) st = s.gps[j].SetTargets(s.StandardisedTargets(j, s.out_std(j)));
+    if (!st.ok()) {
+      s.fitted = false;  // Refit() rebuilds from the stored data.
+      return st;
     }
   }
   return absl::OkStatus();
 }
 
 absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
+  return Build(/*fit=*/true, stop);
+}
+
+absl::Status DynamicsModel::Rebuild() {
+  if (static_cast<int>(state_->data_hyperparameters.size()) != state_->state_dim) {
+    return absl::FailedPreconditionError("Rebuild: no hyperparameters to rebuild with");
+  }
+  return Build(/*fit=*/false, nullptr).status();
+}
+
+absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
+                                                const FitStopFn& stop) {
   const auto t0 = std::chrono::steady_clock::now();
   State& s = *state_;
   const int n = s.n();
@@ -201,6 +228,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
     return absl::FailedPreconditionError(
         absl::StrCat("Refit needs at least 2 samples, have ", n));
   }
+  const bool fit = fit_hyperparameters && s.options.fit_kernel;
   if (!s.normalisation_resolved) {
     const Eigen::RowVectorXd mean = s.z.colwise().mean();
     const Eigen::RowVectorXd std =
@@ -216,14 +244,13 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
     s.half_width = s.options.input_half_width;
     s.normalisation_resolved = true;
   }
-  // Output standardisation, floored at the measurement noise std so that a
+  // Output scale of the fit, floored at the measurement noise std so that a
   // (nearly) constant output does not blow up.
-  const Eigen::VectorXd out_mean = s.targets.colwise().mean().transpose();
-  Eigen::VectorXd out_std =
-      ((s.targets.rowwise() - out_mean.transpose()).colwise().squaredNorm() / n)
+  const Eigen::VectorXd out_std =
+      ((s.targets.rowwise() - s.prior_mean.transpose()).colwise().squaredNorm() / n)
           .cwiseSqrt()
-          .transpose();
-  out_std = out_std.cwiseMax(std::sqrt(s.options.measurement_noise_variance));
+          .transpose()
+          .cwiseMax(std::sqrt(s.options.measurement_noise_variance));
   const Eigen::MatrixXd zn = s.Normalise(s.z);
 
   const int outputs = s.state_dim;
@@ -234,10 +261,11 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
   std::vector<absl::StatusOr<FitSummary>> results(outputs, FitSummary{});
   auto fit_output = [&](int j) {
     const double var = out_std(j) * out_std(j);
-    Eigen::VectorXd y = (s.targets.col(j).array() - out_mean(j)) / out_std(j);
-    if (!s.options.fit_kernel) {
-      const Hyperparameters h =
-          ToNormalised(s.options.fixed[j], s.half_width, out_std(j));
+    Eigen::VectorXd y = s.StandardisedTargets(j, out_std(j));
+    if (!fit) {
+      const Hyperparameters h = ToNormalised(
+          s.options.fit_kernel ? s.data_hyperparameters[j] : s.options.fixed[j],
+          s.half_width, out_std(j));
       absl::Status st = gps[j].Reset(zn, std::move(y), h);
       results[j] = st.ok() ? absl::StatusOr<FitSummary>(FitSummary{}) : st;
       return;
@@ -261,11 +289,12 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
       results[j] = st;
       return;
     }
-    FitOptions fit = s.options.fit;
-    fit.warm_default_start = fit.warm_default_start && default_start;
-    fit.seed = SplitMix64(s.options.fit.seed ^
-                          SplitMix64(static_cast<uint64_t>(s.refits) * 1024u + j));
-    results[j] = FitHyperparameters(fit, noise, s.options.fit_noise, warm, &gps[j], stop);
+    FitOptions fit_options = s.options.fit;
+    fit_options.warm_default_start = fit_options.warm_default_start && default_start;
+    fit_options.seed = SplitMix64(
+        s.options.fit.seed ^ SplitMix64(static_cast<uint64_t>(s.refits) * 1024u + j));
+    results[j] =
+        FitHyperparameters(fit_options, noise, s.options.fit_noise, warm, &gps[j], stop);
   };
   const int threads = (outputs >= 2 && n >= kMinSamplesForThreads)
                           ? std::min(s.options.fit_threads, outputs)
@@ -284,7 +313,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
   }
 
   FitSummary summary;
-  summary.fitted = s.options.fit_kernel;
+  summary.fitted = fit;
   for (const absl::StatusOr<FitSummary>& r : results) {
     if (!r.ok()) return r.status();  // the previous model stays in place
     summary.starts += r->starts;
@@ -294,7 +323,6 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
     summary.stopped = summary.stopped || r->stopped;
   }
   s.gps = std::move(gps);
-  s.out_mean = out_mean;
   s.out_std = out_std;
   s.data_hyperparameters.clear();
   for (int j = 0; j < outputs; ++j) {
@@ -304,6 +332,8 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
   s.fitted = true;
   // A stopped fit keeps samples_since_fit so that the next Refit() is still due
   // and continues from the best point seen.
+  // A rebuild is no fit: samples_since_fit and the fit's counters stay.
+  if (!fit_hyperparameters) return summary;
   if (!summary.stopped) {
     s.samples_since_fit = 0;
     if (s.options.fit_kernel &&
@@ -318,7 +348,8 @@ absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {
   return summary;
 }
 
-absl::Status DynamicsModel::SeedWarmStart(std::vector<Hyperparameters> data_units) {
+absl::Status DynamicsModel::SeedWarmStart(std::vector<Hyperparameters> data_units,
+                                          int fitted_samples) {
   State& s = *state_;
   if (s.fitted) {
     return absl::FailedPreconditionError("SeedWarmStart: the model is already fitted");
@@ -339,6 +370,7 @@ absl::Status DynamicsModel::SeedWarmStart(std::vector<Hyperparameters> data_unit
   }
   s.data_hyperparameters = std::move(data_units);
   s.default_start_n = s.n();
+  s.samples_since_fit = s.n() - std::clamp(fitted_samples, 0, s.n());
   return absl::OkStatus();
 }
 
@@ -379,7 +411,7 @@ void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
                      mean_jacobians != nullptr ? &dmu : nullptr,
                      variance_jacobians != nullptr ? &dvar : nullptr);
     if (mean != nullptr) {
-      mean->col(j) = (s.out_mean(j) + sj * mu.array()).matrix();
+      mean->col(j) = (s.prior_mean(j) + sj * mu.array()).matrix();
       if (delta) mean->col(j) += z.col(j);
     }
     if (variance != nullptr) variance->col(j) = sj * sj * var;
@@ -467,6 +499,8 @@ Eigen::MatrixXd DynamicsModel::PosteriorCovarianceGradient(
   // Normalised inputs: d / dz = (d / dz_n) / half_width.
   return grad * s.half_width.cwiseInverse().asDiagonal();
 }
+
+Eigen::VectorXd DynamicsModel::prior_means() const { return state_->prior_mean; }
 
 Eigen::VectorXd DynamicsModel::noise_variances() const {
   const State& s = *state_;

@@ -53,10 +53,14 @@ struct DynamicsModelOptions {
 };
 
 // One independent exact GP (squared-exponential ARD kernel) per state dimension on
-// inputs z = (x, u). Inputs are normalised with the fixed centre/half-width, each
-// output is standardised with its targets' mean and standard deviation, refreshed
-// at every Refit(). Not thread-safe for mutation; const methods may run
-// concurrently.
+// inputs z = (x, u). Each output's prior mean is the mean of all its targets so far
+// (prior_means()), refreshed at every AddSamples(): the model is a function of the
+// data and the hyperparameters only, whenever Refit() ran, so a model rebuilt from
+// the same data and hyperparameters (after a restart or an import) predicts the
+// same. For the fit, inputs are normalised with the fixed centre/half-width and
+// each output is divided by its targets' standard deviation at that Refit(); the
+// model in data units does not depend on either. Not thread-safe for mutation;
+// const methods may run concurrently.
 class DynamicsModel final : public DynamicsPredictor {
  public:
   static absl::StatusOr<DynamicsModel> Create(DynamicsModelOptions options);
@@ -64,10 +68,11 @@ class DynamicsModel final : public DynamicsPredictor {
   int state_dim() const override;
   int input_dim() const override;
 
-  // Appends transitions (rows of the three matrices). Before the first Refit() the
-  // data is only kept; after it each sample costs O(n^2) (Cholesky row append),
-  // hyperparameters unchanged. INVALID_ARGUMENT on shape mismatch or non-finite
-  // values (nothing is added then).
+  // Appends transitions (rows of the three matrices) and refreshes the prior
+  // means. Before the first Refit() the data is only kept; after it each sample
+  // costs O(n^2) per output (Cholesky row append), plus two O(n^2) solves per
+  // output for the new prior mean; hyperparameters unchanged. INVALID_ARGUMENT on shape
+  // mismatch or non-finite values (nothing is added then).
   absl::Status AddSamples(const Eigen::MatrixXd& states, const Eigen::MatrixXd& inputs,
                           const Eigen::MatrixXd& next_states);
 
@@ -86,10 +91,21 @@ class DynamicsModel final : public DynamicsPredictor {
   // hyperparameters() returns them (fitted() stays false). The data-driven
   // default starts are rerun only once the data grows by
   // fit.default_start_growth from the sample count at this call, so call it
-  // after adding the restored samples. Ignored by Refit() when fit_kernel is
-  // off. INVALID_ARGUMENT on a wrong count or shape or a non-positive or
-  // non-finite value (nothing changes then); FAILED_PRECONDITION once fitted().
-  absl::Status SeedWarmStart(std::vector<Hyperparameters> data_units);
+  // after adding the restored samples. `fitted_samples`: how many of the
+  // samples they were fitted on (clamped to [0, sample_count()]; 0 if unknown),
+  // so samples_since_fit() is what it was when they were saved. Ignored by
+  // Refit() when fit_kernel is off. INVALID_ARGUMENT on a wrong count or shape
+  // or a non-positive or non-finite value (nothing changes then);
+  // FAILED_PRECONDITION once fitted().
+  absl::Status SeedWarmStart(std::vector<Hyperparameters> data_units,
+                             int fitted_samples = 0);
+
+  // Makes the model usable (fitted() true) with hyperparameters() as they are,
+  // without fitting: O(n^3) per output. For a model seeded by SeedWarmStart()
+  // whose fit is still current (no refit due), so it predicts exactly as before
+  // the restart. samples_since_fit() is kept. FAILED_PRECONDITION without
+  // hyperparameters or with fewer than 2 samples.
+  absl::Status Rebuild();
 
   int sample_count() const;
   // Samples added since the last Refit().
@@ -117,13 +133,17 @@ class DynamicsModel final : public DynamicsPredictor {
       const PreparedPoints& a, const std::vector<CovarianceTerm>& terms) const override;
   Eigen::VectorXd ObservationNoiseVariances() const override { return noise_variances(); }
 
+  // Prior mean of each output's target (data units): the mean of all targets so
+  // far (0 before any data).
+  Eigen::VectorXd prior_means() const;
   // Noise variance of each output's target (data units), for "latent + noise".
   Eigen::VectorXd noise_variances() const;
   // Per output, in data units; empty before the first Refit() unless seeded
   // by SeedWarmStart().
   std::vector<Hyperparameters> hyperparameters() const;
-  // Per output, of the targets in data units (the normalised LML minus
-  // n log(output std)); empty before the first Refit().
+  // Per output: log p(targets | inputs, hyperparameters) in data units, with the
+  // prior mean prior_means() (the normalised LML minus n log(output scale));
+  // empty before the first Refit().
   std::vector<double> log_marginal_likelihoods() const;
 
   DynamicsModel(DynamicsModel&&) noexcept;
@@ -133,6 +153,8 @@ class DynamicsModel final : public DynamicsPredictor {
  private:
   struct State;
   explicit DynamicsModel(std::unique_ptr<State> state);
+  // Refit() (fit_hyperparameters) or Rebuild().
+  absl::StatusOr<FitSummary> Build(bool fit_hyperparameters, const FitStopFn& stop);
   std::unique_ptr<State> state_;
 };
 

@@ -86,6 +86,19 @@ absl::Status GpModel::SetHyperparameters(const Hyperparameters& hyperparameters)
   return Factorise();
 }
 
+absl::Status GpModel::SetTargets(Eigen::VectorXd y) {
+  if (y.size() != n_) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("expected ", n_, " targets, got ", y.size()));
+  }
+  if (!y.allFinite()) return absl::InvalidArgumentError("non-finite targets");
+  y_ = std::move(y);
+  if (n_ == 0) return absl::OkStatus();
+  beta_ = LowerFactor().solve(y_);
+  alpha_ = UpperFactor().solve(beta_);
+  return absl::OkStatus();
+}
+
 absl::Status GpModel::Factorise() {
   const int n = n_;
   if (l_.rows() < n) {

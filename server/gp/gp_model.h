@@ -34,6 +34,11 @@ class GpModel {
   // New hyperparameters on the same data: refactorises, O(n^3).
   absl::Status SetHyperparameters(const Hyperparameters& hyperparameters);
 
+  // New targets (n entries) on the same inputs and hyperparameters: two
+  // triangular solves with the cached factor, O(n^2). INVALID_ARGUMENT on a wrong
+  // size or non-finite values (nothing changes then).
+  absl::Status SetTargets(Eigen::VectorXd y);
+
   // Appends one sample (x: d entries) as a row append to L, O(n^2); falls back to
   // a full refactorisation (with jitter) only if the new pivot is not positive.
   absl::Status AddSample(const Eigen::VectorXd& x, double y);

@@ -392,6 +392,12 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
       !s.ok()) {
     return s;
   }
+  // Unset kernel.fit: fitted unless fixed hyperparameters are given (a minimal
+  // config works; a config with `fixed` means them). Filled in before the noise
+  // check, which depends on it.
+  if (!config->kernel().has_fit()) {
+    config->mutable_kernel()->set_fit(config->kernel().fixed_size() == 0);
+  }
   if (config->noise().fit() && !config->kernel().fit()) {
     return Invalid(Field(npath, "fit"),
                    "the noise variance can only be fitted when kernel.fit is true (with "

@@ -52,22 +52,27 @@ absl::Status InternalFromException(absl::string_view what, const std::exception&
   return absl::InternalError(absl::StrCat(what, ": unexpected exception: ", e.what()));
 }
 
-// The saved hyperparameters (a Session message holding only `outputs`), or
-// nothing if they are absent or unusable for `config`.
-std::optional<std::vector<gp::Hyperparameters>> ParseSavedHyperparameters(
-    const std::string& bytes, const v1::SessionConfig& config) {
-  std::optional<std::vector<v1::Hyperparameters>> saved =
-      DecodeSavedHyperparameters(bytes);
-  if (!saved.has_value() || saved->empty() ||
-      static_cast<int>(saved->size()) != config.state_dim()) {
+// The saved fit (store_conversion.h) in engine types.
+struct ParsedFit {
+  std::vector<gp::Hyperparameters> hyperparameters;
+  int64_t fitted_samples = 0;
+};
+
+// The saved fit, or nothing if it is absent or unusable for `config`.
+std::optional<ParsedFit> ParseSavedHyperparameters(const std::string& bytes,
+                                                   const v1::SessionConfig& config) {
+  std::optional<SavedFit> saved = DecodeSavedHyperparameters(bytes);
+  if (!saved.has_value() || saved->hyperparameters.empty() ||
+      static_cast<int>(saved->hyperparameters.size()) != config.state_dim()) {
     return std::nullopt;
   }
-  std::vector<gp::Hyperparameters> result;
-  for (const v1::Hyperparameters& h : *saved) {
+  ParsedFit result;
+  result.fitted_samples = saved->fitted_samples;
+  for (const v1::Hyperparameters& h : saved->hyperparameters) {
     if (h.lengthscales_size() != config.state_dim() + config.input_dim()) {
       return std::nullopt;
     }
-    result.push_back(FromProto(h));
+    result.hyperparameters.push_back(FromProto(h));
   }
   return result;
 }
@@ -114,11 +119,11 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
   try {
     gp::DynamicsModelOptions options = ModelOptionsFromConfig(config);
     if (config.refit().never() && config.kernel().fit()) {
-      if (std::optional<std::vector<gp::Hyperparameters>> saved =
+      if (std::optional<ParsedFit> saved =
               ParseSavedHyperparameters(record.hyperparameters, config)) {
         options.fit_kernel = false;
         options.fit_noise = false;
-        options.fixed = *std::move(saved);
+        options.fixed = std::move(saved->hyperparameters);
       }
     }
     const bool options_fit_kernel = options.fit_kernel;
@@ -153,11 +158,15 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
       }
     }
     if (options_fit_kernel) {
-      // The next refit starts from the last saved fit (a cache: unusable bytes
-      // just mean a cold start).
-      if (std::optional<std::vector<gp::Hyperparameters>> saved =
+      // The model is rebuilt with the last saved fit while it is current, and
+      // the next refit starts from it (a cache: unusable bytes just mean a cold
+      // start).
+      if (std::optional<ParsedFit> saved =
               ParseSavedHyperparameters(record.hyperparameters, config)) {
-        if (absl::Status s = model->SeedWarmStart(*std::move(saved)); !s.ok()) {
+        const int fitted = static_cast<int>(std::min<int64_t>(saved->fitted_samples, n));
+        if (absl::Status s =
+                model->SeedWarmStart(std::move(saved->hyperparameters), fitted);
+            !s.ok()) {
           Log(LogLevel::kWarning,
               absl::StrCat("session ", record.id,
                            ": saved hyperparameters not used: ", s.message()));
@@ -199,10 +208,12 @@ void Session::PublishInfo() {
   {
     const std::vector<gp::Hyperparameters> hyperparameters = model_.hyperparameters();
     const std::vector<double> lml = model_.log_marginal_likelihoods();
+    const Eigen::VectorXd prior_means = model_.prior_means();
     for (size_t i = 0; i < hyperparameters.size(); ++i) {
       v1::OutputModel output;
       *output.mutable_hyperparameters() = ToProto(hyperparameters[i]);
       if (i < lml.size()) output.set_log_marginal_likelihood(lml[i]);
+      output.set_prior_mean(prior_means(static_cast<Eigen::Index>(i)));
       info.outputs.push_back(std::move(output));
     }
   }
@@ -295,6 +306,17 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
   const bool refit_due = config_.kernel().fit() && !config_.refit().never() &&
                          model_.samples_since_fit() >= config_.refit().every_samples();
   if (model_.fitted() && !refit_due) return absl::OkStatus();
+  if (!refit_due && config_.kernel().fit() && !config_.refit().never() &&
+      !model_.hyperparameters().empty()) {
+    // Restored with a fit that is still current: predict as before the restart.
+    if (absl::Status s = model_.Rebuild(); !s.ok()) {
+      return absl::InternalError(absl::StrCat("rebuilding session ", name_, " with ",
+                                              sample_count_,
+                                              " samples failed: ", s.message()));
+    }
+    PublishInfo();
+    return absl::OkStatus();
+  }
 
   const gp::FitStopFn stop = [&]() {
     return Clock::now() >= deadline || (cancelled && cancelled());
@@ -322,7 +344,8 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
                      " failed_starts=", summary->failed_starts,
                      " ms=", summary->wall_time_ms, summary->stopped ? " stopped" : ""));
   }
-  v1::Session saved;
+  v1::Session saved;  // store_conversion.h's format
+  saved.set_sample_count(sample_count_ - model_.samples_since_fit());
   {
     absl::MutexLock lock(&info_mu_);
     for (const v1::OutputModel& output : info_.outputs) *saved.add_outputs() = output;

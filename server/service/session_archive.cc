@@ -54,6 +54,15 @@ absl::StatusOr<v1::SessionConfig> ValidateSessionArchive(
       }
     }
   }
+  if (archive.fitted_sample_count() < 0 ||
+      archive.fitted_sample_count() > archive.samples_size() ||
+      (archive.hyperparameters().empty() && archive.fitted_sample_count() != 0)) {
+    return FieldViolationError(
+        absl::StrCat(path, ".fitted_sample_count"),
+        absl::StrCat("must be in [0, ", archive.samples_size(),
+                     "] (the number of samples), and 0 without hyperparameters; got ",
+                     archive.fitted_sample_count()));
+  }
   if (archive.created_unix_ms() < 0) {
     return FieldViolationError(
         absl::StrCat(path, ".created_unix_ms"),
@@ -71,13 +80,15 @@ absl::StatusOr<v1::SessionArchive> ArchiveFromStore(
     return absl::DataLossError(
         absl::StrCat("session ", record.id, ": the stored config does not parse"));
   }
-  std::optional<std::vector<v1::Hyperparameters>> saved =
-      DecodeSavedHyperparameters(record.hyperparameters);
+  std::optional<SavedFit> saved = DecodeSavedHyperparameters(record.hyperparameters);
   if (!saved.has_value()) {
     return absl::DataLossError(
         absl::StrCat("session ", record.id, ": the stored hyperparameters do not parse"));
   }
-  for (v1::Hyperparameters& h : *saved) *archive.add_hyperparameters() = std::move(h);
+  for (v1::Hyperparameters& h : saved->hyperparameters) {
+    *archive.add_hyperparameters() = std::move(h);
+  }
+  archive.set_fitted_sample_count(saved->fitted_samples);
   archive.mutable_samples()->Reserve(static_cast<int>(samples.size()));
   for (const store::SampleRecord& sample : samples) {
     *archive.add_samples() = ToTransition(sample);
@@ -93,7 +104,8 @@ ArchiveRecords ArchiveToStore(const v1::SessionArchive& archive,
   out.record.config = validated_config.SerializeAsString();
   out.record.created_unix_ms =
       archive.created_unix_ms() > 0 ? archive.created_unix_ms() : now_unix_ms;
-  out.record.hyperparameters = EncodeSavedHyperparameters(archive.hyperparameters());
+  out.record.hyperparameters = EncodeSavedHyperparameters(archive.hyperparameters(),
+                                                          archive.fitted_sample_count());
   out.samples.reserve(static_cast<size_t>(archive.samples_size()));
   for (const v1::Transition& t : archive.samples()) {
     out.samples.push_back(ToSampleRecord(t));

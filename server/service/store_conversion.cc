@@ -25,22 +25,24 @@ v1::Transition ToTransition(const store::SampleRecord& sample) {
 }
 
 std::string EncodeSavedHyperparameters(
-    const google::protobuf::RepeatedPtrField<v1::Hyperparameters>& hyperparameters) {
+    const google::protobuf::RepeatedPtrField<v1::Hyperparameters>& hyperparameters,
+    int64_t fitted_samples) {
   v1::Session saved;
+  saved.set_sample_count(fitted_samples);
   for (const v1::Hyperparameters& h : hyperparameters) {
     *saved.add_outputs()->mutable_hyperparameters() = h;
   }
   return saved.SerializeAsString();
 }
 
-std::optional<std::vector<v1::Hyperparameters>> DecodeSavedHyperparameters(
-    const std::string& bytes) {
+std::optional<SavedFit> DecodeSavedHyperparameters(const std::string& bytes) {
   v1::Session saved;
   if (!saved.ParseFromString(bytes)) return std::nullopt;
-  std::vector<v1::Hyperparameters> result;
-  result.reserve(static_cast<size_t>(saved.outputs_size()));
+  SavedFit result;
+  result.fitted_samples = saved.sample_count();
+  result.hyperparameters.reserve(static_cast<size_t>(saved.outputs_size()));
   for (const v1::OutputModel& output : saved.outputs()) {
-    result.push_back(output.hyperparameters());
+    result.hyperparameters.push_back(output.hyperparameters());
   }
   return result;
 }

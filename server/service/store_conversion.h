@@ -19,13 +19,19 @@ store::SampleRecord ToSampleRecord(const v1::Transition& transition);
 v1::Transition ToTransition(const store::SampleRecord& sample);
 
 // The store's opaque hyperparameter bytes (SessionRecord::hyperparameters) are a
-// serialized Session holding only `outputs`.
+// serialized Session holding only `outputs` and, as `sample_count`, the number of
+// samples the hyperparameters were fitted on (0 if unknown: saved before it was
+// kept, or imported without it).
+struct SavedFit {
+  std::vector<v1::Hyperparameters> hyperparameters;  // one per output
+  int64_t fitted_samples = 0;
+};
 std::string EncodeSavedHyperparameters(
-    const google::protobuf::RepeatedPtrField<v1::Hyperparameters>& hyperparameters);
-// The hyperparameters of each output; nullopt if `bytes` do not parse. Empty
-// bytes (never fitted) give an empty vector.
-std::optional<std::vector<v1::Hyperparameters>> DecodeSavedHyperparameters(
-    const std::string& bytes);
+    const google::protobuf::RepeatedPtrField<v1::Hyperparameters>& hyperparameters,
+    int64_t fitted_samples);
+// nullopt if `bytes` do not parse. Empty bytes (never fitted) give no
+// hyperparameters.
+std::optional<SavedFit> DecodeSavedHyperparameters(const std::string& bytes);
 
 }  // namespace excite::service
 

@@ -101,6 +101,45 @@ class StatsTest(unittest.TestCase):
         self.assertEqual(rows[1], (20, 2.0, None, 1))
 
 
+class SampleEfficiencyTest(unittest.TestCase):
+    def setUp(self):
+        self.trials = [
+            trial("p", "rec", 0, [[10, 2.0], [20, 1.0], [30, 0.5]]),
+            trial("p", "rec", 1, [[10, 2.0], [20, 1.0], [30, 0.7]]),
+            trial("p", "mi", 0, [[10, 1.5], [20, 0.6], [30, 0.4]]),
+            trial("p", "prbs", 0, [[10, 3.0], [20, 2.0], [30, 0.61]]),
+            trial("q", "mi", 0, [[10, 1.0]]),
+        ]
+
+    def test_samples_to_reach(self):
+        rows = [(10, 2.0, None, 1), (20, 0.6, None, 1), (30, 0.4, None, 1)]
+        self.assertEqual(aggregate.samples_to_reach(rows, 0.6), 20)
+        self.assertEqual(aggregate.samples_to_reach(rows, 0.3), None)
+        self.assertEqual(aggregate.samples_to_reach(rows, None), None)
+
+    def test_against_the_reference_final_mean(self):
+        stats = aggregate.final_stats(self.trials)
+        history = aggregate.history_stats(self.trials)
+        eff = aggregate.sample_efficiency(stats, history, ["p", "q"],
+                                          ["rec", "mi", "prbs"])
+        # rec's final mean is 0.6: rec itself at 30, mi at 20, prbs never.
+        self.assertEqual(eff["p"], {"rec": 30, "mi": 20, "prbs": None})
+        # No rec in q: nothing to reach.
+        self.assertEqual(eff["q"], {"rec": None, "mi": None, "prbs": None})
+
+    def test_table_section(self):
+        stats = aggregate.final_stats(self.trials)
+        history = aggregate.history_stats(self.trials)
+        md = aggregate.markdown_table(stats, ["p"], ["rec", "mi", "prbs"],
+                                      history=history)
+        self.assertIn("| **Samples to reach rec's final RMSE** | |", md)
+        self.assertIn("| mi | **20** |", md)
+        self.assertIn("| rec | 30 |", md)
+        self.assertIn("| prbs | not reached |", md)
+        self.assertNotIn("Samples to reach", aggregate.markdown_table(
+            stats, ["p"], ["rec", "mi"]))
+
+
 class BestMarkingTest(unittest.TestCase):
     def test_lowest_and_highest(self):
         cells = {"rec": 1.4, "pa": 2.5, "prbs": 5.7, "sep": None}

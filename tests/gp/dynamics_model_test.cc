@@ -72,7 +72,9 @@ Eigen::MatrixXd Z(const Transitions& d) {
 }
 
 // Fixed data-unit hyperparameters: the model equals a reference GP on raw z and
-// raw targets whose constant prior mean is the targets' mean at the last Refit().
+// raw targets whose constant prior mean is the mean of all targets, also for
+// samples appended after the Refit(); mean, variance and LML against the closed
+// form, and the same model whichever samples came before the Refit().
 TEST(DynamicsModelTest, FixedHyperparametersMatchReferenceInDataUnits) {
   for (Target target : {Target::kDelta, Target::kNext}) {
     DynamicsModelOptions o = BaseOptions(target);
@@ -86,7 +88,7 @@ TEST(DynamicsModelTest, FixedHyperparametersMatchReferenceInDataUnits) {
     const absl::StatusOr<FitSummary> s = model->Refit();
     ASSERT_TRUE(s.ok()) << s.status();
     EXPECT_FALSE(s->fitted);
-    // Appended after the fit: same normalisation (prior mean of the first 30).
+    // Appended after the fit: the prior mean moves to the mean of all 40.
     ASSERT_TRUE(
         model->AddSamples(d.x.bottomRows(10), d.u.bottomRows(10), d.next.bottomRows(10))
             .ok());
@@ -100,13 +102,27 @@ TEST(DynamicsModelTest, FixedHyperparametersMatchReferenceInDataUnits) {
     const Eigen::MatrixXd zt = Z(test);
     Eigen::MatrixXd mean, var;
     model->Predict(zt, &mean, &var, nullptr, nullptr);
+    // All 40 samples before the one Refit(): the same model.
+    absl::StatusOr<DynamicsModel> at_once = DynamicsModel::Create(o);
+    ASSERT_TRUE(at_once.ok()) << at_once.status();
+    ASSERT_TRUE(at_once->AddSamples(d.x, d.u, d.next).ok());
+    ASSERT_TRUE(at_once->Refit().ok());
+    Eigen::MatrixXd mean_at_once, var_at_once;
+    at_once->Predict(zt, &mean_at_once, &var_at_once, nullptr, nullptr);
+    EXPECT_LT((mean - mean_at_once).cwiseAbs().maxCoeff(), 1e-10);
+    EXPECT_LT((var - var_at_once).cwiseAbs().maxCoeff(), 1e-12);
+    const std::vector<double> lml = model->log_marginal_likelihoods();
+    ASSERT_EQ(lml.size(), 2u);
     for (int j = 0; j < 2; ++j) {
       EXPECT_LT(RelErr(reported[j].signal_variance, o.fixed[j].signal_variance), 1e-12);
       EXPECT_LT((reported[j].lengthscales - o.fixed[j].lengthscales).norm(), 1e-12);
       EXPECT_LT(RelErr(reported[j].noise_variance, o.fixed[j].noise_variance), 1e-12);
       EXPECT_LT(RelErr(model->noise_variances()(j), o.fixed[j].noise_variance), 1e-12);
-      const double prior_mean = targets.col(j).head(30).mean();
+      const double prior_mean = targets.col(j).mean();
+      EXPECT_LT(RelErr(model->prior_means()(j), prior_mean), 1e-12);
       const ReferenceGp ref(Z(d), targets.col(j), o.fixed[j], prior_mean);
+      EXPECT_LT(RelErr(lml[j], ref.LogMarginalLikelihood()), 1e-9);
+      EXPECT_LT(RelErr(lml[j], at_once->log_marginal_likelihoods()[j]), 1e-10);
       for (int i = 0; i < 7; ++i) {
         const double expected =
             ref.Mean(zt.row(i)) + (target == Target::kDelta ? zt(i, j) : 0.0);
@@ -206,6 +222,47 @@ TEST(DynamicsModelTest, FitLearnsPendulumAndIsDeterministic) {
   const double rmse = std::sqrt((mean - test.next).squaredNorm() / 100);
   EXPECT_LT(rmse, 0.1);  // the rate changes by up to ~3 per step
   EXPECT_TRUE((var.array() > 0).all());
+}
+
+// A model restored from the same data and the saved hyperparameters (seeded with
+// the count they were fitted on, then rebuilt without a fit) predicts what the
+// original predicted after samples were appended past its fit.
+TEST(DynamicsModelTest, RebuildFromSavedFitPredictsAsTheOriginal) {
+  for (Target target : {Target::kDelta, Target::kNext}) {
+    const DynamicsModelOptions o = BaseOptions(target);
+    absl::StatusOr<DynamicsModel> original = DynamicsModel::Create(o);
+    ASSERT_TRUE(original.ok());
+    const Transitions d = MakeTransitions(53, 11);
+    ASSERT_TRUE(
+        original->AddSamples(d.x.topRows(50), d.u.topRows(50), d.next.topRows(50)).ok());
+    ASSERT_TRUE(original->Refit().ok());
+    ASSERT_TRUE(
+        original->AddSamples(d.x.bottomRows(3), d.u.bottomRows(3), d.next.bottomRows(3))
+            .ok());
+
+    absl::StatusOr<DynamicsModel> restored = DynamicsModel::Create(o);
+    ASSERT_TRUE(restored.ok());
+    EXPECT_EQ(restored->Rebuild().code(), absl::StatusCode::kFailedPrecondition);
+    ASSERT_TRUE(restored->AddSamples(d.x, d.u, d.next).ok());
+    ASSERT_TRUE(restored->SeedWarmStart(original->hyperparameters(), 50).ok());
+    EXPECT_EQ(restored->samples_since_fit(), 3);
+    ASSERT_TRUE(restored->Rebuild().ok());
+    EXPECT_TRUE(restored->fitted());
+    EXPECT_EQ(restored->samples_since_fit(), 3);  // a rebuild is not a fit
+
+    const Eigen::MatrixXd zt = Z(MakeTransitions(9, 12));
+    Eigen::MatrixXd m1, v1, m2, v2;
+    original->Predict(zt, &m1, &v1, nullptr, nullptr);
+    restored->Predict(zt, &m2, &v2, nullptr, nullptr);
+    EXPECT_LT((m1 - m2).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((v1 - v2).cwiseAbs().maxCoeff(), 1e-9 * v1.cwiseAbs().maxCoeff());
+    EXPECT_LT((original->prior_means() - restored->prior_means()).norm(), 1e-15);
+    for (int j = 0; j < 2; ++j) {
+      EXPECT_LT(RelErr(original->log_marginal_likelihoods()[j],
+                       restored->log_marginal_likelihoods()[j]),
+                1e-9);
+    }
+  }
 }
 
 // A stopped Refit() leaves a usable model with the best hyperparameters so far

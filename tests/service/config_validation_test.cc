@@ -5,6 +5,7 @@
 #include <string>
 
 #include "gmock/gmock.h"
+#include "google/protobuf/text_format.h"
 #include "gtest/gtest.h"
 #include "server/service/config_text.h"
 
@@ -188,6 +189,27 @@ TEST(ConfigValidationTest, FixedKernel) {
   c = FixedKernel();
   c.mutable_kernel()->set_fit(true);
   ExpectInvalid(c, "config.kernel.fixed", "must be empty when kernel.fit is true");
+}
+
+// kernel.fit unset: fitted when no fixed hyperparameters are given (a minimal
+// config works), fixed when they are; the filled-in value is explicit.
+TEST(ConfigValidationTest, UnsetKernelFitDependsOnFixed) {
+  v1::SessionConfig minimal;
+  ASSERT_TRUE(google::protobuf::TextFormat::ParseFromString(
+      R"pb(state_dim: 4
+           input_dim: 1
+           input_bounds { lower: -1 upper: 1 }
+           noise { variance: 0.01 })pb",
+      &minimal));
+  ASSERT_FALSE(minimal.kernel().has_fit());
+  ASSERT_TRUE(ValidateSessionConfig(&minimal).ok());
+  EXPECT_TRUE(minimal.kernel().has_fit());
+  EXPECT_TRUE(minimal.kernel().fit());
+  v1::SessionConfig fixed = FixedKernel();
+  fixed.mutable_kernel()->clear_fit();
+  ASSERT_TRUE(ValidateSessionConfig(&fixed).ok());
+  EXPECT_TRUE(fixed.kernel().has_fit());
+  EXPECT_FALSE(fixed.kernel().fit());
 }
 
 TEST(ConfigValidationTest, FitBoundsAndCounts) {

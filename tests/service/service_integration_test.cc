@@ -402,10 +402,79 @@ TEST_F(ServiceTest, RefitNeverKeepsSavedHyperparametersAcrossRestart) {
   const v1::Session restored = *client_->GetSession(name);
   ASSERT_EQ(restored.outputs_size(), 2);
   ExpectSameHyperparameters(restored, fitted);
-  // Not bit-identical: the output standardisation (the GP's prior mean) is taken
-  // from all 30 samples now, from the first 25 before.
-  EXPECT_NEAR(after->mean(0), before->mean(0), 1e-4);
-  EXPECT_NEAR(after->mean(1), before->mean(1), 1e-4);
+  // The prior mean is the mean of all 30 targets before and after.
+  EXPECT_NEAR(after->mean(0), before->mean(0), 1e-9);
+  EXPECT_NEAR(after->mean(1), before->mean(1), 1e-9);
+}
+
+// In every refit policy, a session predicts the same (to rounding) before and
+// after a restart, and after an export and import: the prior mean follows the
+// data, and a saved fit that is still current is used as it is (no refit).
+TEST_F(ServiceTest, PredictionsSurviveRestartAndImportInEveryRefitPolicy) {
+  struct Policy {
+    const char* id;
+    int every_samples;
+    bool never;
+    bool fixed;
+  };
+  const Policy policies[] = {{"every-1", 1, false, false},
+                             {"every-5", 5, false, false},
+                             {"never", 0, true, false},
+                             {"fixed", 0, false, true}};
+  v1::PredictRequest predict;
+  for (double v : {0.3, -0.4, 1.0, -2.0, 5.0, -1.5}) predict.add_inputs(v);
+  std::vector<v1::PredictResponse> before;
+  for (const Policy& p : policies) {
+    v1::SessionConfig config = PendulumConfig();
+    if (p.fixed) {
+      config.mutable_noise()->set_fit(false);
+      config.mutable_kernel()->clear_fit();  // unset with `fixed`: not fitted
+      for (int j = 0; j < 2; ++j) {
+        v1::Hyperparameters* h = config.mutable_kernel()->add_fixed();
+        h->set_signal_variance(1.5 + j);
+        for (double l : {1.0, 4.0, 2.0}) h->add_lengthscales(l);
+        h->set_noise_variance(1e-4);
+      }
+    }
+    config.mutable_refit()->set_every_samples(p.every_samples);
+    config.mutable_refit()->set_never(p.never);
+    const std::string name = Create(p.id, config).name();
+    EXPECT_EQ(client_->GetSession(name)->config().kernel().fit(), !p.fixed);
+    Add(name, {PendulumTransitions(25, 0, 31)});
+    predict.set_session(name);
+    ASSERT_TRUE(client_->Predict(predict).ok());
+    // 3 more: every-1 refits at the next Predict, every-5 does not, the others
+    // never do; each moves the prior mean.
+    Add(name, {PendulumTransitions(3, 25, 32)});
+    absl::StatusOr<v1::PredictResponse> response = client_->Predict(predict);
+    ASSERT_TRUE(response.ok()) << response.status();
+    before.push_back(*response);
+  }
+  auto expect_same = [&](const std::string& name, const v1::PredictResponse& expected) {
+    predict.set_session(name);
+    absl::StatusOr<v1::PredictResponse> got = client_->Predict(predict);
+    ASSERT_TRUE(got.ok()) << got.status();
+    ASSERT_EQ(got->mean_size(), expected.mean_size());
+    for (int i = 0; i < expected.mean_size(); ++i) {
+      EXPECT_NEAR(got->mean(i), expected.mean(i), 1e-9) << name << " mean " << i;
+      EXPECT_NEAR(got->variance(i), expected.variance(i),
+                  1e-9 * std::abs(expected.variance(i)) + 1e-15)
+          << name << " variance " << i;
+    }
+  };
+  StopServer();
+  StartServer();
+  for (size_t k = 0; k < before.size(); ++k) {
+    expect_same(absl::StrCat("sessions/", policies[k].id), before[k]);
+  }
+  for (size_t k = 0; k < before.size(); ++k) {
+    absl::StatusOr<v1::SessionArchive> archive =
+        client_->ExportSession(absl::StrCat("sessions/", policies[k].id));
+    ASSERT_TRUE(archive.ok()) << archive.status();
+    const std::string id = absl::StrCat("imported-", policies[k].id);
+    ASSERT_TRUE(client_->ImportSession(*archive, id).ok());
+    expect_same(absl::StrCat("sessions/", id), before[k]);
+  }
 }
 
 // A refitting session comes back from a restart with its last fitted
@@ -429,14 +498,20 @@ TEST_F(ServiceTest, RestartRestoresSavedHyperparameters) {
     EXPECT_EQ(restored.outputs(i).hyperparameters().SerializeAsString(),
               fitted.outputs(i).hyperparameters().SerializeAsString());
   }
-  // The first refit starts there: with the same data it stays close.
+  // No sample since that fit: the next Predict rebuilds with them (no refit).
+  ASSERT_TRUE(client_->Predict(predict).ok());
+  const v1::Session rebuilt = *client_->GetSession(name);
+  ExpectSameHyperparameters(rebuilt, fitted);
+  // The next sample makes a refit due, which starts there: with nearly the same
+  // data it stays close.
+  Add(name, {PendulumTransitions(1, 25, 22)});
   ASSERT_TRUE(client_->Predict(predict).ok());
   const v1::Session refitted = *client_->GetSession(name);
   ASSERT_EQ(refitted.outputs_size(), 2);
   for (int i = 0; i < 2; ++i) {
     const v1::Hyperparameters& a = fitted.outputs(i).hyperparameters();
     const v1::Hyperparameters& b = refitted.outputs(i).hyperparameters();
-    EXPECT_NEAR(std::log(b.signal_variance()), std::log(a.signal_variance()), 0.1);
+    EXPECT_NEAR(std::log(b.signal_variance()), std::log(a.signal_variance()), 0.2);
   }
 }
 

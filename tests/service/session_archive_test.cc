@@ -291,6 +291,15 @@ TEST_F(SessionArchiveTest, EachInvalidArchiveNamesItsFieldAndStoresNothing) {
        [nan](v1::SessionArchive* a) {
          a->mutable_hyperparameters(1)->set_noise_variance(nan);
        }},
+      {"archive.fitted_sample_count",
+       [](v1::SessionArchive* a) { a->set_fitted_sample_count(11); }},  // 10 samples
+      {"archive.fitted_sample_count",
+       [](v1::SessionArchive* a) { a->set_fitted_sample_count(-1); }},
+      {"archive.fitted_sample_count",
+       [](v1::SessionArchive* a) {
+         a->clear_hyperparameters();
+         a->set_fitted_sample_count(3);
+       }},
       {"archive.created_unix_ms",
        [](v1::SessionArchive* a) { a->set_created_unix_ms(-5); }},
   };
