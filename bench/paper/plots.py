@@ -19,11 +19,16 @@ COLORS = {
     "pa": "#d62728",
     "greedy": "#8c564b",
     "random": "#7f7f7f",
+    "mi": "#e377c2",
+    "roi": "#17becf",
+    "uniform": "#000000",
 }
 
 
 def _color(strategy, index):
-    return COLORS.get(strategy, plt.get_cmap("tab10")(index % 10))
+    # A strategy without a colour of its own takes one no listed strategy uses.
+    spare = ["#bcbd22", "#aec7e8", "#ffbb78", "#98df8a"]
+    return COLORS.get(strategy, spare[index % len(spare)])
 
 
 def _draw_rmse(ax, history, system, strategies, strategy_labels, title):
