@@ -38,6 +38,42 @@ int BinOf(double v, double lower, double upper, int bins) {
 
 }  // namespace
 
+Eigen::VectorXd UniformPoint(const Box& box, PortableRandom& random) {
+  Eigen::VectorXd point(box.lower.size());
+  for (Eigen::Index i = 0; i < point.size(); ++i) {
+    point(i) = random.Uniform(box.lower(i), box.upper(i));
+  }
+  return point;
+}
+
+absl::StatusOr<Eigen::VectorXd> UniformState(const Plant& plant, const Box& region,
+                                             PortableRandom& random) {
+  constexpr int kMaxDraws = 100000;
+  constexpr double kPi = 3.14159265358979323846;
+  Eigen::VectorXd x = UniformPoint(region, random);
+  for (const auto& [s, c] : plant.AnglePairs()) {
+    int draw = 0;
+    for (; draw < kMaxDraws; ++draw) {
+      const double angle = random.Uniform(-kPi, kPi);
+      x(s) = std::sin(angle);
+      x(c) = std::cos(angle);
+      if (x(s) >= region.lower(s) && x(s) <= region.upper(s) && x(c) >= region.lower(c) &&
+          x(c) <= region.upper(c)) {
+        break;
+      }
+    }
+    if (draw == kMaxDraws) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("state region: dimensions ", s, " and ", c,
+                       " hold one angle as (sin, cos), "
+                       "and no angle (or too short an arc) has both in [",
+                       region.lower(s), ", ", region.upper(s), "] x [", region.lower(c),
+                       ", ", region.upper(c), "]"));
+    }
+  }
+  return x;
+}
+
 absl::StatusOr<EvaluationSet> MakeEvaluationSet(const Plant& plant, const Box& region,
                                                 const Box& inputs, int points,
                                                 uint64_t seed) {
@@ -54,14 +90,13 @@ absl::StatusOr<EvaluationSet> MakeEvaluationSet(const Plant& plant, const Box& r
   EvaluationSet set;
   set.inputs.resize(points, dx + du);
   set.next_states.resize(points, dx);
-  Eigen::VectorXd x(dx);
-  Eigen::VectorXd u(du);
   for (int p = 0; p < points; ++p) {
-    for (int i = 0; i < dx; ++i) x(i) = random.Uniform(region.lower(i), region.upper(i));
-    for (int j = 0; j < du; ++j) u(j) = random.Uniform(inputs.lower(j), inputs.upper(j));
-    set.inputs.row(p).head(dx) = x.transpose();
+    absl::StatusOr<Eigen::VectorXd> x = UniformState(plant, region, random);
+    if (!x.ok()) return x.status();
+    const Eigen::VectorXd u = UniformPoint(inputs, random);
+    set.inputs.row(p).head(dx) = x->transpose();
     set.inputs.row(p).tail(du) = u.transpose();
-    set.next_states.row(p) = plant.Step(x, u).transpose();
+    set.next_states.row(p) = plant.Step(*x, u).transpose();
   }
   return set;
 }
@@ -80,6 +115,19 @@ absl::StatusOr<double> Rmse(const Eigen::MatrixXd& predicted_mean,
   }
   const double squared_sum = (predicted_mean - true_next_states).squaredNorm();
   return std::sqrt(squared_sum / static_cast<double>(predicted_mean.rows()));
+}
+
+absl::StatusOr<Eigen::VectorXd> RmsePerDimension(
+    const Eigen::MatrixXd& predicted_mean, const Eigen::MatrixXd& true_next_states) {
+  // Rmse() checks the shapes and rows.
+  if (absl::StatusOr<double> total = Rmse(predicted_mean, true_next_states);
+      !total.ok()) {
+    return total.status();
+  }
+  return ((predicted_mean - true_next_states).colwise().squaredNorm() /
+          static_cast<double>(predicted_mean.rows()))
+      .cwiseSqrt()
+      .transpose();
 }
 
 absl::StatusOr<Coverage> ComputeCoverage(const Eigen::MatrixXd& visited,

@@ -7,6 +7,7 @@
 
 #include "absl/status/statusor.h"
 #include "sim/plants/plant.h"
+#include "sim/portable_random.h"
 
 namespace excite::sim {
 
@@ -16,8 +17,21 @@ struct Box {
   Eigen::VectorXd upper;
 };
 
-// The points a model is scored on: z_p = (x_p, u_p) drawn uniformly and
-// independently from region x input box, and the plant's true next state f(z_p).
+// A point drawn uniformly from a box (one Uniform per dimension, in order): the
+// distribution of the evaluation set's inputs.
+Eigen::VectorXd UniformPoint(const Box& box, PortableRandom& random);
+
+// A state of `plant` drawn uniformly from `region`: the evaluation set's states.
+// Each dimension is uniform in its interval, except that each of the plant's
+// AnglePairs() gets one angle drawn uniformly from the arc whose sin and cos lie in
+// their intervals (by rejection from the full circle), so that the state is one
+// the plant can be in. INVALID_ARGUMENT if an arc is empty or too short to hit in
+// 100000 draws (under 1e-4 of the circle).
+absl::StatusOr<Eigen::VectorXd> UniformState(const Plant& plant, const Box& region,
+                                             PortableRandom& random);
+
+// The points a model is scored on: z_p = (x_p, u_p) with x_p = UniformState(plant,
+// region) and u_p uniform in the input box, and the plant's true next state f(z_p).
 struct EvaluationSet {
   Eigen::MatrixXd inputs;  // points x (state_dim + input_dim), rows z_p = (x_p, u_p).
   Eigen::MatrixXd next_states;  // points x state_dim, rows f(z_p) (noise-free).
@@ -39,6 +53,12 @@ absl::StatusOr<EvaluationSet> MakeEvaluationSet(const Plant& plant, const Box& r
 // state units. INVALID_ARGUMENT if the shapes differ or there are no rows.
 absl::StatusOr<double> Rmse(const Eigen::MatrixXd& predicted_mean,
                             const Eigen::MatrixXd& true_next_states);
+
+// The same per state dimension j: sqrt( (1/P) * sum_p (mean_pj - f(z_p)_j)^2 ), so
+// that RMSE^2 is the sum of their squares: which dimensions the error comes from.
+// Errors as Rmse().
+absl::StatusOr<Eigen::VectorXd> RmsePerDimension(const Eigen::MatrixXd& predicted_mean,
+                                                 const Eigen::MatrixXd& true_next_states);
 
 // The joint coverage is computed up to this state dimension (bins^dim cells).
 inline constexpr int kMaxJointCoverageDim = 4;

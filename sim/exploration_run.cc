@@ -55,13 +55,16 @@ class ExplorationRun {
         input_box_(BoxOf(config.session().input_bounds())),
         noise_stddev_(std::sqrt(config.session().noise().variance())),
         noise_random_(config.session().seed(), 1),
-        input_random_(config.session().seed(), 2) {}
+        input_random_(config.session().seed(), 2),
+        design_random_(config.session().seed(), 3) {}
 
   absl::StatusOr<RunSummary> Run();
   const std::string& session_name() const { return session_name_; }
 
  private:
   absl::Status Explore();
+  // ExplorationOptions::uniform_design.
+  absl::Status ExploreUniformly();
   // Applies u for one sampling period and queues the transition.
   absl::Status ApplyInput(const Eigen::VectorXd& u);
   // Sends the queued transitions (one AddData stream) and evaluates if due.
@@ -80,6 +83,7 @@ class ExplorationRun {
   const double noise_stddev_;
   PortableRandom noise_random_;
   PortableRandom input_random_;
+  PortableRandom design_random_;
 
   std::string session_name_;
   int64_t min_samples_ = 2;
@@ -155,7 +159,8 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   if (!coverage.ok()) return Annotate(coverage.status(), "coverage");
 
   summary_.system = config_.system();
-  summary_.strategy = StrategyName(config_.session().strategy());
+  summary_.strategy =
+      options_.uniform_design ? "uniform" : StrategyName(config_.session().strategy());
   summary_.session = session_name_;
   summary_.samples = samples_;
   summary_.final_rmse =
@@ -179,7 +184,30 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   return summary_;
 }
 
+absl::Status ExplorationRun::ExploreUniformly() {
+  const int64_t target = config_.samples();
+  const int64_t every = config_.evaluation().every_samples();
+  while (samples_ < target) {
+    absl::StatusOr<Eigen::VectorXd> x = UniformState(plant_, region_, design_random_);
+    if (!x.ok()) return Annotate(x.status(), "uniform design");
+    x_ = *std::move(x);
+    y_ = Measure(x_);
+    visited_.push_back(x_);
+    if (absl::Status s = ApplyInput(UniformPoint(input_box_, design_random_)); !s.ok()) {
+      return s;
+    }
+    // The next state is not where the next sample starts: only the drawn states
+    // count as visited.
+    visited_.pop_back();
+    if (samples_ % every == 0 || samples_ == target) {
+      if (absl::Status s = FlushAndMaybeEvaluate(); !s.ok()) return s;
+    }
+  }
+  return FlushAndMaybeEvaluate();
+}
+
 absl::Status ExplorationRun::Explore() {
+  if (options_.uniform_design) return ExploreUniformly();
   const int64_t target = config_.samples();
 
   x_ = Eigen::VectorXd::Zero(dx_);
@@ -310,6 +338,10 @@ absl::Status ExplorationRun::Evaluate() {
       reply->mean().data(), points, dx_);
   absl::StatusOr<double> rmse = Rmse(mean, evaluation_set_.next_states);
   if (!rmse.ok()) return rmse.status();
+  absl::StatusOr<Eigen::VectorXd> per_dimension =
+      RmsePerDimension(mean, evaluation_set_.next_states);
+  if (!per_dimension.ok()) return per_dimension.status();
+  summary_.final_rmse_per_dimension.assign(per_dimension->begin(), per_dimension->end());
   summary_.rmse_history.push_back({samples_, *rmse});
   if (options_.log != nullptr) {
     *options_.log << absl::StrFormat("step %d samples %d rmse %.4f plan_ms %.1f\n",

@@ -19,6 +19,14 @@ struct ExplorationOptions {
   bool keep_session = false;
   // Progress lines go here ("step <k> samples <n> rmse <r> plan_ms <p>"); may be null.
   std::ostream* log = nullptr;
+  // The idealised reference design instead of the session's strategy: every sample
+  // starts from a state x = UniformState(plant, session.state_bounds) with an
+  // input u drawn uniformly from the input bounds (the evaluation set's
+  // distribution, evaluation.h; PortableRandom(seed, stream 3)), and
+  // records (x + e, u, plant.Step(x, u) + e'). No plant can follow it (it cannot
+  // jump between states): it shows how much a strategy could still win. The
+  // server is never asked to plan; the summary's strategy is "uniform".
+  bool uniform_design = false;
 };
 
 // Runs one exploration of `plant` against the server behind `client`, as `config`

@@ -56,6 +56,12 @@ std::string RunSummaryToJson(const RunSummary& summary) {
                     ", ", JsonNumber(summary.rmse_history[i].rmse), "]");
   }
   history += "]";
+  std::string per_dimension = "[";
+  for (size_t j = 0; j < summary.final_rmse_per_dimension.size(); ++j) {
+    absl::StrAppend(&per_dimension, j == 0 ? "" : ", ",
+                    JsonNumber(summary.final_rmse_per_dimension[j]));
+  }
+  per_dimension += "]";
   const std::string joint =
       summary.coverage_joint.has_value() ? JsonNumber(*summary.coverage_joint) : "null";
   const std::string left_safe_box =
@@ -66,6 +72,7 @@ std::string RunSummaryToJson(const RunSummary& summary) {
                       "  \"session\": ", JsonString(summary.session), ",\n",    //
                       "  \"samples\": ", summary.samples, ",\n",                //
                       "  \"final_rmse\": ", JsonNumber(summary.final_rmse), ",\n",
+                      "  \"final_rmse_per_dimension\": ", per_dimension, ",\n",
                       "  \"coverage_marginal\": ", JsonNumber(summary.coverage_marginal),
                       ",\n",                                   //
                       "  \"coverage_joint\": ", joint, ",\n",  //

@@ -24,6 +24,8 @@ struct RunSummary {
   std::string session;   // "sessions/{id}".
   int64_t samples = 0;   // Transitions collected and stored.
   double final_rmse = 0.0;
+  // The final RMSE per state dimension (RmsePerDimension); empty if never evaluated.
+  std::vector<double> final_rmse_per_dimension;
   double coverage_marginal = 0.0;        // Fraction in [0, 1].
   std::optional<double> coverage_joint;  // Not computed for state_dim > 4.
   std::vector<RmsePoint> rmse_history;   // In order of samples.
@@ -38,10 +40,10 @@ struct RunSummary {
 };
 
 // The summary as one JSON object with the keys system, strategy, session, samples,
-// final_rmse, coverage_marginal, coverage_joint, rmse_history ([[samples, rmse], ...]),
-// plan_ms_p50, plans, random_steps, plan_retries, left_safe_box, wall_s. Non-finite
-// numbers and a missing coverage_joint or left_safe_box are written as null. Ends with a
-// newline.
+// final_rmse, final_rmse_per_dimension ([...]), coverage_marginal, coverage_joint,
+// rmse_history ([[samples, rmse], ...]), plan_ms_p50, plans, random_steps, plan_retries,
+// left_safe_box, wall_s. Non-finite numbers and a missing coverage_joint or left_safe_box
+// are written as null. Ends with a newline.
 std::string RunSummaryToJson(const RunSummary& summary);
 
 // Writes RunSummaryToJson(summary) to `path` (replacing it). INTERNAL naming the

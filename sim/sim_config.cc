@@ -21,7 +21,7 @@ constexpr std::pair<const char*, v1::Strategy> kStrategyNames[] = {
     {"greedy", v1::STRATEGY_GREEDY}, {"prbs", v1::STRATEGY_PRBS},
     {"chirp", v1::STRATEGY_CHIRP},   {"random", v1::STRATEGY_RANDOM},
     {"sep", v1::STRATEGY_SEP},       {"mi", v1::STRATEGY_MI},
-    {"roi", v1::STRATEGY_ROI},
+    {"roi", v1::STRATEGY_ROI},       {"optimistic", v1::STRATEGY_OPTIMISTIC},
 };
 
 // Collects text-format parse errors into one message.
@@ -146,9 +146,9 @@ absl::StatusOr<v1::Strategy> ParseStrategy(absl::string_view name) {
   for (const auto& [known, strategy] : kStrategyNames) {
     if (name == known) return strategy;
   }
-  return absl::InvalidArgumentError(
-      absl::StrCat("unknown strategy \"", name,
-                   "\" (expected rec, pa, greedy, prbs, chirp, random, sep, mi or roi)"));
+  return absl::InvalidArgumentError(absl::StrCat(
+      "unknown strategy \"", name,
+      "\" (expected rec, pa, greedy, prbs, chirp, random, sep, mi, roi or optimistic)"));
 }
 
 std::string StrategyName(v1::Strategy strategy) {

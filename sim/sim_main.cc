@@ -24,7 +24,9 @@
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "excite-server address, HOST:PORT");
 ABSL_FLAG(std::string, config, "", "SimConfig textproto file (required)");
 ABSL_FLAG(std::string, strategy, "",
-          "rec, pa, greedy, sep, mi, roi, prbs, chirp or random; overrides the config's");
+          "rec, pa, greedy, sep, mi, roi, optimistic, prbs, chirp or random; overrides "
+          "the config's. Or uniform: the idealised reference design, every (x, u) drawn "
+          "uniformly from the region x the input bounds (no plant can follow it)");
 ABSL_FLAG(int32_t, samples, 0, "transitions to collect; 0 keeps the config's");
 ABSL_FLAG(int64_t, seed, -1,
           "seed of the measurement noise and of the session; -1 keeps the config's "
@@ -53,7 +55,9 @@ int Main() {
   if (!config.ok()) return Fail(config.status());
 
   SimOverrides overrides;
-  if (const std::string name = absl::GetFlag(FLAGS_strategy); !name.empty()) {
+  const bool uniform_design = absl::GetFlag(FLAGS_strategy) == "uniform";
+  if (const std::string name = absl::GetFlag(FLAGS_strategy);
+      !name.empty() && !uniform_design) {
     absl::StatusOr<v1::Strategy> strategy = ParseStrategy(name);
     if (!strategy.ok()) return Fail(strategy.status());
     overrides.strategy = *strategy;
@@ -89,13 +93,16 @@ int Main() {
 
   std::cout << absl::StrFormat("excite-sim: %s, strategy %s, %d samples, server %s\n",
                                config->system(),
-                               StrategyName(config->session().strategy()),
+                               uniform_design
+                                   ? "uniform"
+                                   : StrategyName(config->session().strategy()),
                                config->samples(), server)
             << std::flush;
   ExplorationOptions options;
   options.session_id = absl::GetFlag(FLAGS_session_id);
   options.keep_session = absl::GetFlag(FLAGS_keep_session);
   options.log = &std::cout;
+  options.uniform_design = uniform_design;
   absl::StatusOr<RunSummary> summary = RunExploration(*client, **plant, *config, options);
   if (!summary.ok()) return Fail(summary.status());
 

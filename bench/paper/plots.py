@@ -21,13 +21,14 @@ COLORS = {
     "random": "#7f7f7f",
     "mi": "#e377c2",
     "roi": "#17becf",
+    "optimistic": "#bcbd22",
     "uniform": "#000000",
 }
 
 
 def _color(strategy, index):
     # A strategy without a colour of its own takes one no listed strategy uses.
-    spare = ["#bcbd22", "#aec7e8", "#ffbb78", "#98df8a"]
+    spare = ["#aec7e8", "#ffbb78", "#98df8a", "#c5b0d5"]
     return COLORS.get(strategy, spare[index % len(spare)])
 
 

@@ -48,8 +48,16 @@ MultipleShootingNlp::MultipleShootingNlp(
       stop_(std::move(stop)),
       feasibility_tolerance_(feasibility_tolerance) {}
 
+void MultipleShootingNlp::SetOptimism(double beta, const Eigen::MatrixXd& initial_eta) {
+  beta_ = beta > 0.0 ? beta : 0.0;
+  initial_eta_ = Eigen::MatrixXd::Zero(EtaRows(), dx_);
+  if (initial_eta.rows() == initial_eta_.rows() && initial_eta.cols() == dx_) {
+    initial_eta_ = initial_eta.cwiseMax(-1.0).cwiseMin(1.0);
+  }
+}
+
 int MultipleShootingNlp::num_variables() const {
-  return horizon_ * du_ + (horizon_ - 1) * dx_;
+  return horizon_ * du_ + (horizon_ - 1 + EtaRows()) * dx_;
 }
 
 int MultipleShootingNlp::num_constraints() const {
@@ -64,6 +72,13 @@ Eigen::MatrixXd MultipleShootingNlp::InputsOf(const Eigen::VectorXd& w) const {
   return inputs;
 }
 
+Eigen::MatrixXd MultipleShootingNlp::EtaOf(const Eigen::VectorXd& w) const {
+  Eigen::MatrixXd eta(EtaRows(), dx_);
+  for (int i = 0; i < EtaRows(); ++i)
+    eta.row(i) = w.segment(EtaOffset(i), dx_).transpose();
+  return eta;
+}
+
 Eigen::VectorXd MultipleShootingNlp::StartingPoint() const {
   Eigen::VectorXd w(num_variables());
   for (int i = 0; i < horizon_; ++i) {
@@ -72,6 +87,9 @@ Eigen::VectorXd MultipleShootingNlp::StartingPoint() const {
   }
   for (int i = 1; i < horizon_; ++i) {
     w.segment(StateOffset(i), dx_) = initial_states_.row(i).transpose();
+  }
+  for (int i = 0; i < EtaRows(); ++i) {
+    w.segment(EtaOffset(i), dx_) = initial_eta_.row(i).transpose();
   }
   return w;
 }
@@ -83,7 +101,7 @@ bool MultipleShootingNlp::get_nlp_info(Ipopt::Index& n, Ipopt::Index& m,
   m = num_constraints();
   nnz_jac_g = 0;
   for (int i = 0; i + 1 < horizon_; ++i) {
-    nnz_jac_g += dx_ * (1 + du_ + (i >= 1 ? dx_ : 0));
+    nnz_jac_g += dx_ * (1 + du_ + (i >= 1 ? dx_ : 0) + (EtaRows() > 0 ? 1 : 0));
   }
   if (safe_.active()) {
     for (int i = 0; i < horizon_; ++i) nnz_jac_g += 2 * dx_ * (du_ + (i >= 1 ? dx_ : 0));
@@ -104,8 +122,9 @@ bool MultipleShootingNlp::get_bounds_info(Ipopt::Index n, Ipopt::Number* x_l,
     }
   }
   for (int k = horizon_ * du_; k < n; ++k) {
-    x_l[k] = -kInfinity;
-    x_u[k] = kInfinity;
+    const bool eta = EtaRows() > 0 && k >= EtaOffset(0);
+    x_l[k] = eta ? -1.0 : -kInfinity;
+    x_u[k] = eta ? 1.0 : kInfinity;
   }
   const int dynamics = (horizon_ - 1) * dx_;
   std::fill(g_l, g_l + dynamics, 0.0);
@@ -181,15 +200,24 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
 
   const int m = num_constraints();
   constraints_.resize(m);
+  // sd (and d sd / dz = d var / dz / (2 sd), 0 where floored) for the optimistic
+  // dynamics and the safe box.
+  Eigen::MatrixXd sd;
+  if (safe_.active() || EtaRows() > 0)
+    sd = variance_.cwiseMax(kVarianceFloor).cwiseSqrt();
+  const auto dsd_scale = [&](int i, int j) {
+    return variance_(i, j) > kVarianceFloor ? 0.5 / sd(i, j) : 0.0;
+  };
   for (int i = 0; i + 1 < horizon_; ++i) {
     constraints_.segment(i * dx_, dx_) =
         w.segment(StateOffset(i + 1), dx_) - mean_.row(i).transpose();
+    if (EtaRows() > 0) {
+      constraints_.segment(i * dx_, dx_) -=
+          beta_ * sd.row(i).transpose().cwiseProduct(w.segment(EtaOffset(i), dx_));
+    }
   }
   const int dynamics = (horizon_ - 1) * dx_;
-  // Safe box rows: sd and d sd / dz at every point.
-  Eigen::MatrixXd sd;
   if (safe_.active()) {
-    sd = variance_.cwiseMax(kVarianceFloor).cwiseSqrt();
     for (int i = 0; i < horizon_; ++i) {
       for (int j = 0; j < dx_; ++j) {
         const int row = dynamics + 2 * (i * dx_ + j);
@@ -203,24 +231,28 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
   std::vector<double> values;
   values.reserve(static_cast<size_t>(m) * (1 + du_ + dx_));
   for (int i = 0; i + 1 < horizon_; ++i) {
-    const Eigen::MatrixXd& jm = mean_jacobians_[i];
     for (int r = 0; r < dx_; ++r) {
+      // d (next state row r) / d z_i: the mean's, plus the hallucination's.
+      Eigen::RowVectorXd d = mean_jacobians_[i].row(r);
+      if (EtaRows() > 0) {
+        d +=
+            beta_ * w(EtaOffset(i) + r) * dsd_scale(i, r) * variance_jacobians_[i].row(r);
+      }
       values.push_back(1.0);
       if (i >= 1) {
-        for (int l = 0; l < dx_; ++l) values.push_back(-jm(r, l));
+        for (int l = 0; l < dx_; ++l) values.push_back(-d(l));
       }
-      for (int l = 0; l < du_; ++l) values.push_back(-jm(r, dx_ + l));
+      for (int l = 0; l < du_; ++l) values.push_back(-d(dx_ + l));
+      if (EtaRows() > 0) values.push_back(-beta_ * sd(i, r));
     }
   }
   if (safe_.active()) {
     for (int i = 0; i < horizon_; ++i) {
       for (int j = 0; j < dx_; ++j) {
-        // d sd / dz = d var / dz / (2 sd); 0 where the variance is floored.
-        const double dsd_scale = variance_(i, j) > kVarianceFloor ? 0.5 / sd(i, j) : 0.0;
         for (const double sign : {1.0, -1.0}) {
           const Eigen::RowVectorXd d =
               mean_jacobians_[i].row(j) +
-              sign * safe_.margin * dsd_scale * variance_jacobians_[i].row(j);
+              sign * safe_.margin * dsd_scale(i, j) * variance_jacobians_[i].row(j);
           if (i >= 1) {
             for (int l = 0; l < dx_; ++l) values.push_back(d(l));
           }
@@ -289,6 +321,10 @@ bool MultipleShootingNlp::eval_jac_g(Ipopt::Index n, const Ipopt::Number* x, boo
         for (int l = 0; l < du_; ++l) {
           iRow[k] = row;
           jCol[k++] = InputOffset(i) + l;
+        }
+        if (EtaRows() > 0) {
+          iRow[k] = row;
+          jCol[k++] = EtaOffset(i) + r;
         }
       }
     }

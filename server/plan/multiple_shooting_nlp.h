@@ -55,14 +55,28 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   // at sqrt(kVarianceFloor)). Call before the solve.
   void SetSafeBox(SafeBox box) { safe_ = std::move(box); }
 
+  // Optimistic exploration (OPAX): with beta > 0 the dynamics become
+  //   x_{i+1} = mean(z_i) + beta sd(z_i) o eta_i,   eta_i in [-1, 1]^dx,
+  // with (M - 1) dx hallucinated controls appended to w (after the states; the
+  // objective does not depend on them directly) and sd the latent standard
+  // deviation floored at sqrt(kVarianceFloor) (d sd = d var / (2 sd), 0 where
+  // floored). initial_eta: (M - 1) x dx (clipped into [-1, 1]), or empty for 0.
+  // Call before the solve.
+  void SetOptimism(double beta, const Eigen::MatrixXd& initial_eta = {});
+
   int horizon() const { return horizon_; }
   int num_variables() const;
   int num_constraints() const;
-  // Offsets in w of u_i (0 <= i < M) and of x_i (1 <= i < M).
+  // Offsets in w of u_i (0 <= i < M), of x_i (1 <= i < M) and, with optimism,
+  // of eta_i (0 <= i < M - 1).
   int InputOffset(int i) const { return i * du_; }
   int StateOffset(int i) const { return horizon_ * du_ + (i - 1) * dx_; }
+  int EtaOffset(int i) const { return horizon_ * du_ + (horizon_ - 1 + i) * dx_; }
   // M x du inputs contained in a decision vector.
   Eigen::MatrixXd InputsOf(const Eigen::VectorXd& w) const;
+  // (M - 1) x dx hallucinated controls in a decision vector (0 rows without
+  // optimism).
+  Eigen::MatrixXd EtaOf(const Eigen::VectorXd& w) const;
   // The decision vector of the initial guess.
   Eigen::VectorXd StartingPoint() const;
 
@@ -126,6 +140,9 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   StopFn stop_;
   const double feasibility_tolerance_;
   SafeBox safe_;
+  double beta_ = 0.0;  // > 0: optimistic dynamics
+  Eigen::MatrixXd initial_eta_;
+  int EtaRows() const { return beta_ > 0.0 ? horizon_ - 1 : 0; }
 
   // Cache of the last evaluated iterate.
   bool cache_valid_ = false;

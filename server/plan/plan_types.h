@@ -24,6 +24,9 @@ enum class Strategy {
   kSep,     // separated search (argmax H over X x U) and control (steer, apply u*)
   kMi,      // rec with the horizon's joint mutual information instead of summed entropy
   kRoi,     // rec maximising the variance removed over a reference set of the region
+  // rec on optimistic (hallucinated) dynamics maximising the summed
+  // log(1 + var / noise) (OPAX)
+  kOptimistic,
 };
 
 // True for the strategies that never evaluate the model (prbs, chirp, random).
@@ -70,6 +73,12 @@ struct PlanOptions {
   SepOptions sep;
   // kRoi: points of the reference set over state x input bounds (>= 1).
   int roi_reference_points = 256;
+  // kOptimistic: the hallucinated deviation from the mean, in one-step latent
+  // standard deviations (> 0): x_{i+1} = mean + beta sd o eta, eta in [-1, 1]^dx.
+  // 1 lets the plan assume any next state within one standard deviation of the
+  // mean (OPAX scales beta with a confidence level; 1 is its order for
+  // well-calibrated GPs).
+  double optimism_beta = 1.0;
   // State constraints on the planned mean trajectory of every model-based
   // strategy (inactive by default).
   SafeBox safe_box;
@@ -101,7 +110,8 @@ struct PlanSummary {
   // What the strategy maximised, on the returned plan: the summed differential
   // entropy (nats) for rec, pa, greedy and sep; the mutual information (nats) for
   // mi; the fraction of the summed variance over the reference set removed for
-  // roi; 0 for the model-free strategies.
+  // roi; sum log(1 + var / noise) along the optimistic trajectory (nats) for
+  // optimistic; 0 for the model-free strategies.
   double objective = 0.0;
   double wall_time_ms = 0.0;
   // With a safe box: how far the returned plan's predictions violate it (state

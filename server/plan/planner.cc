@@ -13,6 +13,7 @@
 #include "server/plan/chirp_signal.h"
 #include "server/plan/entropy_objective.h"
 #include "server/plan/information_objectives.h"
+#include "server/plan/optimistic_objective.h"
 #include "server/plan/prbs_signal.h"
 #include "server/plan/random_signal.h"
 #include "server/plan/reference_set.h"
@@ -217,6 +218,16 @@ absl::StatusOr<std::unique_ptr<ShootingObjective>> Planner::MakeObjective(
       if (!objective.ok()) return objective.status();
       return std::unique_ptr<ShootingObjective>(*std::move(objective));
     }
+    case Strategy::kOptimistic: {
+      if (!(options_.optimism_beta > 0.0) || !std::isfinite(options_.optimism_beta)) {
+        return absl::InvalidArgumentError("optimism_beta must be finite and > 0");
+      }
+      auto objective =
+          NegativeLogVarianceRatioObjective::Create(model.ObservationNoiseVariances());
+      if (!objective.ok()) return objective.status();
+      return std::unique_ptr<ShootingObjective>(
+          new NegativeLogVarianceRatioObjective(*std::move(objective)));
+    }
     default:
       return std::unique_ptr<ShootingObjective>(new NegativeEntropyObjective());
   }
@@ -271,6 +282,9 @@ absl::StatusOr<Plan> Planner::PlanTrajectory(const gp::DynamicsPredictor& model,
           ? kInformationObjectiveScaling
           : kObjectiveScaling;
   settings.safe_box = options_.safe_box;
+  if (options_.strategy == Strategy::kOptimistic) {
+    settings.optimism_beta = options_.optimism_beta;
+  }
   ShootingResult result = SolveFromStarts(model, **objective, x0, lower, upper,
                                           std::move(starts), settings, stop);
   if (!result.best.valid) {

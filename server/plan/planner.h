@@ -20,6 +20,11 @@ namespace excite::plan {
 //    shooting with Ipopt: maximise sum_i H(x_i, u_i) s.t. x_{i+1} = mean(x_i, u_i),
 //    u_i in bounds. Keeps the previous plan to warm-start the next call (shifted by
 //    its apply_count). apply_count: 1 (rec, greedy, mi, roi) or M (pa).
+//  - kOptimistic: the same NLP and receding horizon on optimistic dynamics
+//    x_{i+1} = mean + optimism_beta sd o eta_i with hallucinated controls eta_i
+//    in [-1, 1]^dx as extra variables, maximising sum log(1 + var / noise)
+//    (optimistic_objective.h); the plan's states are the optimistic trajectory.
+//    Needs the model's observation noise variances (INVALID_ARGUMENT if not).
 //  - kMi, kRoi: the same NLP and receding horizon with an information objective
 //    over the horizon's points jointly (information_objectives.h): mutual
 //    information, or the variance removed over a Halton reference set of

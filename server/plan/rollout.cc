@@ -1,9 +1,11 @@
 #include "server/plan/rollout.h"
 
+#include "server/plan/entropy_objective.h"
+
 namespace excite::plan {
 
 Rollout RollOut(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
-                const Eigen::MatrixXd& inputs) {
+                const Eigen::MatrixXd& inputs, const Hallucination* hallucination) {
   const int horizon = static_cast<int>(inputs.rows());
   const int dx = model.state_dim();
   const int du = model.input_dim();
@@ -13,6 +15,10 @@ Rollout RollOut(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
   r.means.resize(horizon, dx);
   r.variances.resize(horizon, dx);
   if (x0.size() != dx || inputs.cols() != du) return r;
+  if (hallucination != nullptr && hallucination->eta.rows() > 0 &&
+      hallucination->eta.cols() != dx) {
+    return r;
+  }
   Eigen::MatrixXd z(1, dx + du);
   Eigen::MatrixXd mean;
   Eigen::MatrixXd variance;
@@ -29,6 +35,13 @@ Rollout RollOut(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
     r.variances.row(i) = variance.row(0);
     r.means.row(i) = mean.row(0);
     x = mean.row(0).transpose();
+    if (hallucination != nullptr && i < hallucination->eta.rows()) {
+      x += hallucination->beta * variance.row(0)
+                                     .transpose()
+                                     .cwiseMax(kVarianceFloor)
+                                     .cwiseSqrt()
+                                     .cwiseProduct(hallucination->eta.row(i).transpose());
+    }
   }
   r.valid = r.states.allFinite() && r.means.allFinite() && r.variances.allFinite();
   return r;

@@ -17,9 +17,20 @@ struct Rollout {
   bool valid = false;         // every number finite and of the right shape
 };
 
-// M sequential one-point Predict calls (no Jacobians).
+// Optimistic (hallucinated) dynamics: x_{i+1} = mean(z_i) + beta sd(z_i) o eta_i,
+// with sd the latent standard deviation (floored at sqrt(kVarianceFloor)) and
+// eta_i in [-1, 1]^dx, row i of `eta` ((M - 1) x dx; rows past M - 1 unused).
+struct Hallucination {
+  double beta = 0.0;
+  Eigen::MatrixXd eta;
+};
+
+// M sequential one-point Predict calls (no Jacobians), through the mean, or
+// through the optimistic dynamics if `hallucination` is given (then `states`
+// is the hallucinated trajectory and `means` still the mean at each point).
 Rollout RollOut(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
-                const Eigen::MatrixXd& inputs);
+                const Eigen::MatrixXd& inputs,
+                const Hallucination* hallucination = nullptr);
 
 // The points z_i = (x_i, u_i) of a rollout: M x (dx + du).
 Eigen::MatrixXd PointsOf(const Rollout& rollout);

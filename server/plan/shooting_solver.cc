@@ -82,6 +82,7 @@ ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
     Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
         model, objective, x0, lower, upper, starts[s], initial_states[s], stopped);
     nlp->SetSafeBox(settings.safe_box);
+    nlp->SetOptimism(settings.optimism_beta);
     IpoptSettings ipopt;
     ipopt.max_iterations = settings.max_iterations;
     ipopt.tolerance = settings.tolerance;
@@ -98,7 +99,11 @@ ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
       if (w == &nlp->final_point() && *w == nlp->best_feasible()) continue;  // done
       const Eigen::MatrixXd inputs =
           nlp->InputsOf(*w).cwiseMax(lower_rows).cwiseMin(upper_rows);
-      consider(RollOut(model, x0, inputs), static_cast<int>(s));
+      Hallucination hallucination{settings.optimism_beta,
+                                  nlp->EtaOf(*w).cwiseMax(-1.0).cwiseMin(1.0)};
+      consider(RollOut(model, x0, inputs,
+                       settings.optimism_beta > 0.0 ? &hallucination : nullptr),
+               static_cast<int>(s));
     }
     if (nlp->stopped()) {
       result.stopped = true;

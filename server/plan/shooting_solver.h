@@ -19,6 +19,9 @@ struct ShootingSettings {
   double tolerance = 1e-4;         // Ipopt tol
   double objective_scaling = 1.0;  // Ipopt obj_scaling_factor
   SafeBox safe_box;                // state constraints (inactive by default)
+  // > 0: optimistic dynamics (MultipleShootingNlp::SetOptimism); the plans are
+  // then rolled out through them and `best.states` is the hallucinated trajectory.
+  double optimism_beta = 0.0;
 };
 
 struct ShootingResult {
@@ -42,11 +45,13 @@ struct ShootingResult {
 // `objective`, through SolveTnlp, i.e. under the process-wide Ipopt mutex, with
 // analytic first derivatives and a limited-memory Hessian), and the NLP's best
 // feasible and final points are rolled out again (inputs clipped into the bounds).
-// Returns the rollout with the lowest objective (evaluated on the rollout, where
-// the dynamics hold exactly); with an active safe box, a rollout that keeps it
-// (violation <= kSafeBoxTolerance) beats any that does not, and among those that do not
-// the smallest violation wins. `stop` is polled before each start and at every Ipopt
-// iteration; once it fires no further start is solved.
+// With optimism, each start begins with eta = 0 (the mean) and the NLP's points
+// are rolled out with their hallucinated controls. Returns the rollout with the
+// lowest objective (evaluated on the rollout, where the dynamics hold exactly); with an
+// active safe box, a rollout that keeps it (violation <= kSafeBoxTolerance) beats any
+// that does not, and among those that do not the smallest violation wins. `stop` is
+// polled before each start and at every Ipopt iteration; once it fires no further start
+// is solved.
 ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
                                const ShootingObjective& objective,
                                const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,

@@ -292,6 +292,22 @@ absl::Status ValidateRoi(absl::string_view path, v1::SessionConfig* config) {
   return absl::OkStatus();
 }
 
+// OptimisticConfig: beta in (0, 10] when set; filled in (1) for
+// STRATEGY_OPTIMISTIC.
+absl::Status ValidateOptimistic(absl::string_view path, v1::SessionConfig* config) {
+  const bool optimistic = config->strategy() == v1::STRATEGY_OPTIMISTIC;
+  if (config->optimistic().has_beta()) {
+    const double beta = config->optimistic().beta();
+    if (!std::isfinite(beta) || !(beta > 0.0) || beta > 10.0) {
+      return Invalid(Field(Field(path, "optimistic"), "beta"),
+                     absl::StrCat("must be in (0, 10] standard deviations, got ", beta));
+    }
+  } else if (optimistic) {
+    config->mutable_optimistic()->set_beta(plan::PlanOptions().optimism_beta);
+  }
+  return absl::OkStatus();
+}
+
 // SafetyConfig: 0 or state_dim intervals; the margin filled in (2) when a box
 // is set.
 absl::Status ValidateSafety(absl::string_view path, v1::SessionConfig* config) {
@@ -455,6 +471,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
   if (absl::Status s = ValidateSignal(path, config); !s.ok()) return s;
   if (absl::Status s = ValidateSep(path, config); !s.ok()) return s;
   if (absl::Status s = ValidateRoi(path, config); !s.ok()) return s;
+  if (absl::Status s = ValidateOptimistic(path, config); !s.ok()) return s;
   if (absl::Status s = ValidateSafety(path, config); !s.ok()) return s;
   return ValidatePlanner(path, config->mutable_planner());
 }

@@ -89,6 +89,9 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
     case v1::STRATEGY_ROI:
       options.strategy = plan::Strategy::kRoi;
       break;
+    case v1::STRATEGY_OPTIMISTIC:
+      options.strategy = plan::Strategy::kOptimistic;
+      break;
     default:
       options.strategy = plan::Strategy::kRec;
       break;
@@ -143,6 +146,7 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
   if (config.roi().reference_points() != 0) {
     options.roi_reference_points = config.roi().reference_points();
   }
+  if (config.optimistic().has_beta()) options.optimism_beta = config.optimistic().beta();
   return options;
 }
 

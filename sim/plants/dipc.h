@@ -23,6 +23,10 @@ class Dipc : public MujocoPlant {
 
   std::string name() const override { return "dipc"; }
   int state_dim() const override { return 8; }
+  // (sin t1, cos t1) and (sin t2, cos t2).
+  std::vector<std::pair<int, int>> AnglePairs() const override {
+    return {{1, 3}, {2, 4}};
+  }
 
   // The state of cart position p, angles t1, t2 and their rates.
   static Eigen::VectorXd StateOf(double p, double t1, double t2, double p_dot,

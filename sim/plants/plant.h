@@ -3,6 +3,8 @@
 
 #include <Eigen/Dense>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace excite::sim {
 
@@ -19,6 +21,10 @@ class Plant {
   // u is used as given: bounds are the caller's business.
   virtual Eigen::VectorXd Step(const Eigen::VectorXd& x,
                                const Eigen::VectorXd& u) const = 0;
+  // State dimensions that hold one angle as (sin, cos): (sin index, cos index)
+  // pairs. A state the plant can be in has sin^2 + cos^2 = 1 in each; tools that
+  // draw states (the evaluation set) draw the angle, not the two numbers.
+  virtual std::vector<std::pair<int, int>> AnglePairs() const { return {}; }
 };
 
 }  // namespace excite::sim

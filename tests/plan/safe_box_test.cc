@@ -66,8 +66,9 @@ TEST(SafeBoxTest, EveryModelBasedStrategyKeepsTheBox) {
   const gp::DynamicsModel model = FittedModel(150);
   const Eigen::VectorXd x0 = Eigen::Vector2d(0.0, 0.0);
   const SafeBox box = Box(0.12, 0.2, 1.0);
-  for (Strategy strategy : {Strategy::kRec, Strategy::kPa, Strategy::kGreedy,
-                            Strategy::kSep, Strategy::kMi, Strategy::kRoi}) {
+  for (Strategy strategy :
+       {Strategy::kRec, Strategy::kPa, Strategy::kGreedy, Strategy::kSep, Strategy::kMi,
+        Strategy::kRoi, Strategy::kOptimistic}) {
     PlanOptions o;
     o.strategy = strategy;
     o.horizon = 10;

@@ -177,8 +177,10 @@ TEST_F(ServiceTest, PlanInputsPerStrategy) {
     int horizon;
     int apply_count;
   };
-  for (const Case& c : {Case{v1::STRATEGY_REC, 5, 1}, Case{v1::STRATEGY_PA, 5, 5},
-                        Case{v1::STRATEGY_GREEDY, 1, 1}}) {
+  for (const Case& c :
+       {Case{v1::STRATEGY_REC, 5, 1}, Case{v1::STRATEGY_PA, 5, 5},
+        Case{v1::STRATEGY_GREEDY, 1, 1}, Case{v1::STRATEGY_MI, 5, 1},
+        Case{v1::STRATEGY_ROI, 5, 1}, Case{v1::STRATEGY_OPTIMISTIC, 5, 1}}) {
     SCOPED_TRACE(v1::Strategy_Name(c.strategy));
     const std::string id = absl::AsciiStrToLower(v1::Strategy_Name(c.strategy));
     std::string session_id = id;

@@ -186,6 +186,29 @@ TEST(StrategyConfigTest, MiAndRoi) {
   EXPECT_EQ(PlanOptionsFromConfig(c).strategy, plan::Strategy::kMi);
 }
 
+TEST(StrategyConfigTest, Optimistic) {
+  v1::SessionConfig c = Config(v1::STRATEGY_OPTIMISTIC);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.optimistic().beta(), 1.0);  // the default is filled in
+  plan::PlanOptions o = PlanOptionsFromConfig(c);
+  EXPECT_EQ(o.strategy, plan::Strategy::kOptimistic);
+  EXPECT_EQ(o.optimism_beta, 1.0);
+  c.mutable_optimistic()->set_beta(2.5);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(PlanOptionsFromConfig(c).optimism_beta, 2.5);
+  for (double bad : {0.0, -1.0, 10.5, std::nan(""), HUGE_VAL}) {
+    c = Config(v1::STRATEGY_OPTIMISTIC);
+    c.mutable_optimistic()->set_beta(bad);
+    ExpectInvalid(c, "config.optimistic.beta", "(0, 10]");
+  }
+  // Another strategy: not filled in, but a set value is still checked.
+  c = Config(v1::STRATEGY_REC);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_FALSE(c.has_optimistic());
+  c.mutable_optimistic()->set_beta(-2.0);
+  ExpectInvalid(c, "config.optimistic.beta");
+}
+
 TEST(StrategyConfigTest, SafeBox) {
   v1::SessionConfig c = Config(v1::STRATEGY_REC);
   ASSERT_TRUE(ValidateSessionConfig(&c).ok());

@@ -5,6 +5,8 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 
@@ -21,6 +23,19 @@ class AddPlant : public Plant {
                        const Eigen::VectorXd& u) const override {
     return x + 2.0 * u;
   }
+};
+
+// State (v, sin a, cos a): one angle held as (sin, cos) after a plain dimension.
+class AnglePlant : public Plant {
+ public:
+  std::string name() const override { return "angle"; }
+  int state_dim() const override { return 3; }
+  int input_dim() const override { return 1; }
+  Eigen::VectorXd Step(const Eigen::VectorXd& x,
+                       const Eigen::VectorXd& /*u*/) const override {
+    return x;
+  }
+  std::vector<std::pair<int, int>> AnglePairs() const override { return {{1, 2}}; }
 };
 
 Box MakeBox(std::initializer_list<double> lower, std::initializer_list<double> upper) {
@@ -41,6 +56,14 @@ TEST(RmseTest, HandComputed) {
   absl::StatusOr<double> rmse = Rmse(predicted, truth);
   ASSERT_TRUE(rmse.ok());
   EXPECT_DOUBLE_EQ(*rmse, std::sqrt(2.5));
+  // Per dimension: errors (1, 0) and (0, -2): sqrt(1/2) and sqrt(4/2).
+  absl::StatusOr<Eigen::VectorXd> per_dimension = RmsePerDimension(predicted, truth);
+  ASSERT_TRUE(per_dimension.ok());
+  ASSERT_EQ(per_dimension->size(), 2);
+  EXPECT_DOUBLE_EQ((*per_dimension)(0), std::sqrt(0.5));
+  EXPECT_DOUBLE_EQ((*per_dimension)(1), std::sqrt(2.0));
+  EXPECT_DOUBLE_EQ(per_dimension->squaredNorm(), 2.5);
+  EXPECT_FALSE(RmsePerDimension(predicted, Eigen::MatrixXd(2, 3)).ok());
 }
 
 TEST(RmseTest, ZeroForPerfectPrediction) {
@@ -76,6 +99,39 @@ TEST(EvaluationSetTest, PointsInBoxesAndTrueNextStates) {
   }
   // Spread over the region, not stuck in a corner.
   EXPECT_NEAR(set->inputs.col(0).mean(), 1.0, 0.4);
+}
+
+// Angle pairs are drawn as angles: every point on the unit circle, uniform over
+// the arc the bounds allow (here cos <= 0: the left half circle, a in [pi/2, 3pi/2]).
+TEST(EvaluationSetTest, AnglePairsAreDrawnOnTheirArc) {
+  const AnglePlant plant;
+  const Box region = MakeBox({-2.0, -1.0, -1.0}, {2.0, 1.0, 0.0});
+  const Box inputs = MakeBox({0.0}, {1.0});
+  absl::StatusOr<EvaluationSet> set = MakeEvaluationSet(plant, region, inputs, 2000, 3);
+  ASSERT_TRUE(set.ok()) << set.status();
+  int upper_half = 0;
+  double mean_angle = 0.0;
+  for (int p = 0; p < 2000; ++p) {
+    const double s = set->inputs(p, 1);
+    const double c = set->inputs(p, 2);
+    EXPECT_NEAR(s * s + c * c, 1.0, 1e-12);
+    EXPECT_LE(c, 0.0);
+    upper_half += s > 0.0 ? 1 : 0;
+    // The angle in [pi/2, 3pi/2]: uniform there has mean pi and std pi/sqrt(12).
+    mean_angle += std::atan2(s, c) < 0 ? std::atan2(s, c) + 2 * M_PI : std::atan2(s, c);
+  }
+  mean_angle /= 2000;
+  EXPECT_NEAR(upper_half, 1000, 100);
+  EXPECT_NEAR(mean_angle, M_PI, 0.1);
+  // The plain dimension stays uniform in its interval.
+  EXPECT_NEAR(set->inputs.col(0).mean(), 0.0, 0.15);
+  EXPECT_GE(set->inputs.col(0).minCoeff(), -2.0);
+  // An arc that does not exist (sin >= 0.5 needs cos <= 0.87): an error naming it.
+  const Box empty = MakeBox({-2.0, 0.5, 0.9}, {2.0, 1.0, 1.0});
+  absl::StatusOr<EvaluationSet> none = MakeEvaluationSet(plant, empty, inputs, 5, 3);
+  EXPECT_EQ(none.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(none.status().message().find("dimensions 1 and 2"), std::string::npos)
+      << none.status();
 }
 
 TEST(EvaluationSetTest, SameSeedSameSetOtherSeedOtherSet) {

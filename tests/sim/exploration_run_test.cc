@@ -247,6 +247,46 @@ TEST_F(ExplorationRunTest, FailedPreconditionAfterMinSamplesIsAnError) {
   EXPECT_EQ(service_->deleted_.size(), 1u);  // Cleaned up on failure too.
 }
 
+// The idealised reference design never asks for a plan: each transition starts at
+// a state drawn in the region, with an input drawn in the bounds, and its next
+// state is one plant step from the drawn state (measured with the configured noise).
+TEST_F(ExplorationRunTest, UniformDesignDrawsEveryStateAndInputFromTheBoxes) {
+  config_.set_samples(25);
+  config_.mutable_session()->mutable_noise()->set_variance(1e-12);
+  ExplorationOptions options;
+  options.uniform_design = true;
+  absl::StatusOr<RunSummary> summary = Run(options);
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->strategy, "uniform");
+  EXPECT_EQ(service_->plan_calls_, 0);
+  EXPECT_EQ(summary->plans, 0);
+  EXPECT_EQ(summary->random_steps, 0);
+  ASSERT_EQ(service_->transitions_.size(), 25u);
+  const v1::SessionConfig& session = config_.session();
+  double moved = 0.0;
+  for (size_t k = 0; k < service_->transitions_.size(); ++k) {
+    const v1::Transition& t = service_->transitions_[k];
+    EXPECT_EQ(t.sequence(), static_cast<int64_t>(k));
+    const Eigen::Vector2d x(t.state(0), t.state(1));
+    for (int i = 0; i < 2; ++i) {
+      EXPECT_GE(x(i), session.state_bounds(i).lower() - 1e-5);
+      EXPECT_LE(x(i), session.state_bounds(i).upper() + 1e-5);
+    }
+    EXPECT_GE(t.input(0), session.input_bounds(0).lower());
+    EXPECT_LE(t.input(0), session.input_bounds(0).upper());
+    const Eigen::VectorXd next =
+        plant_->Step(x, Eigen::VectorXd::Constant(1, t.input(0)));
+    EXPECT_NEAR(t.next_state(0), next(0), 1e-4);
+    EXPECT_NEAR(t.next_state(1), next(1), 1e-4);
+    if (k > 0) {
+      moved += std::abs(t.state(0) - service_->transitions_[k - 1].next_state(0));
+    }
+  }
+  EXPECT_GT(moved, 1.0);                        // states jump: not a trajectory
+  ASSERT_EQ(summary->rmse_history.size(), 3u);  // at 10, 20, 25
+  EXPECT_EQ(summary->final_rmse_per_dimension.size(), 2u);
+}
+
 TEST_F(ExplorationRunTest, SameSeedSameData) {
   config_.set_samples(6);
   ASSERT_TRUE(Run().ok());

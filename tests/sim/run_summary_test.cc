@@ -17,6 +17,7 @@ RunSummary Example() {
   summary.session = "sessions/a\"b";
   summary.samples = 20;
   summary.final_rmse = 0.5;
+  summary.final_rmse_per_dimension = {0.25, 0.375};
   summary.coverage_marginal = 0.25;
   summary.coverage_joint = 0.125;
   summary.rmse_history = {{10, 1.5}, {20, 0.5}};
@@ -35,6 +36,7 @@ TEST(RunSummaryTest, Json) {
             "  \"session\": \"sessions/a\\\"b\",\n"
             "  \"samples\": 20,\n"
             "  \"final_rmse\": 0.5,\n"
+            "  \"final_rmse_per_dimension\": [0.25, 0.375],\n"
             "  \"coverage_marginal\": 0.25,\n"
             "  \"coverage_joint\": 0.125,\n"
             "  \"rmse_history\": [[10, 1.5], [20, 0.5]],\n"

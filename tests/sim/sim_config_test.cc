@@ -181,8 +181,8 @@ TEST(SimConfigTest, StrategyNames) {
   EXPECT_EQ(ParseStrategy("p&a").status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(ParseStrategy("").status().code(), absl::StatusCode::kInvalidArgument);
   // Every name round-trips.
-  for (const char* name :
-       {"rec", "pa", "greedy", "prbs", "chirp", "random", "sep", "mi", "roi"}) {
+  for (const char* name : {"rec", "pa", "greedy", "prbs", "chirp", "random", "sep", "mi",
+                           "roi", "optimistic"}) {
     absl::StatusOr<v1::Strategy> strategy = ParseStrategy(name);
     ASSERT_TRUE(strategy.ok()) << name;
     EXPECT_EQ(StrategyName(*strategy), name);

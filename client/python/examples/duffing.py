@@ -72,8 +72,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--server", default="127.0.0.1:50051")
     parser.add_argument("--strategy", default="rec",
-                        choices=["rec", "pa", "greedy", "sep", "mi", "roi", "prbs", "chirp",
-                                 "random"])
+                        choices=["rec", "pa", "greedy", "sep", "mi", "roi", "optimistic",
+                                 "prbs", "chirp", "random"])
     parser.add_argument("--samples", type=int, default=80)
     parser.add_argument("--horizon", type=int, default=10)
     parser.add_argument("--every", type=int, default=10, help="RMSE every this many samples")
