@@ -307,25 +307,23 @@ bool MultipleShootingNlp::eval_jac_g(Ipopt::Index n, const Ipopt::Number* x, boo
   if (n != num_variables() || m != num_constraints()) return false;
   if (values == nullptr) {
     Ipopt::Index k = 0;
+    const auto add = [&](int row, int column) {
+      iRow[k] = row;
+      jCol[k++] = column;
+    };
+    // The columns of z_i = (x_i, u_i) in w (x_0 is fixed: no columns).
+    const auto add_point = [&](int row, int i) {
+      if (i >= 1) {
+        for (int l = 0; l < dx_; ++l) add(row, StateOffset(i) + l);
+      }
+      for (int l = 0; l < du_; ++l) add(row, InputOffset(i) + l);
+    };
     for (int i = 0; i + 1 < horizon_; ++i) {
       for (int r = 0; r < dx_; ++r) {
         const int row = i * dx_ + r;
-        iRow[k] = row;
-        jCol[k++] = StateOffset(i + 1) + r;
-        if (i >= 1) {
-          for (int l = 0; l < dx_; ++l) {
-            iRow[k] = row;
-            jCol[k++] = StateOffset(i) + l;
-          }
-        }
-        for (int l = 0; l < du_; ++l) {
-          iRow[k] = row;
-          jCol[k++] = InputOffset(i) + l;
-        }
-        if (EtaRows() > 0) {
-          iRow[k] = row;
-          jCol[k++] = EtaOffset(i) + r;
-        }
+        add(row, StateOffset(i + 1) + r);
+        add_point(row, i);
+        if (EtaRows() > 0) add(row, EtaOffset(i) + r);
       }
     }
     if (safe_.active()) {
@@ -333,16 +331,7 @@ bool MultipleShootingNlp::eval_jac_g(Ipopt::Index n, const Ipopt::Number* x, boo
       for (int i = 0; i < horizon_; ++i) {
         for (int row = dynamics + 2 * i * dx_; row < dynamics + 2 * (i + 1) * dx_;
              ++row) {
-          if (i >= 1) {
-            for (int l = 0; l < dx_; ++l) {
-              iRow[k] = row;
-              jCol[k++] = StateOffset(i) + l;
-            }
-          }
-          for (int l = 0; l < du_; ++l) {
-            iRow[k] = row;
-            jCol[k++] = InputOffset(i) + l;
-          }
+          add_point(row, i);
         }
       }
     }
