@@ -17,6 +17,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "server/service/auth.h"
 #include "server/service/excite_server.h"
@@ -92,7 +93,14 @@ int Run(int argc, char** argv) {
     }
     options.security.auth_token = *std::move(token);
   } else if (const char* env = std::getenv("EXCITE_AUTH_TOKEN"); env != nullptr) {
-    options.security.auth_token = env;
+    // Set but empty (or blank) is a mistake, not a wish for no authentication.
+    options.security.auth_token = std::string(absl::StripAsciiWhitespace(env));
+    if (options.security.auth_token.empty()) {
+      std::fprintf(stderr,
+                   "excite-server: EXCITE_AUTH_TOKEN is set but empty; set a token, or "
+                   "unset it to run without one\n");
+      return 2;
+    }
   }
   absl::StatusOr<std::unique_ptr<excite::service::ExciteServer>> server =
       excite::service::ExciteServer::Start(options);

@@ -15,6 +15,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "server/gp/flush_denormals.h"
 #include "server/gp/gp_model.h"
 #include "server/gp/hyperparameter_fit.h"
 #include "server/gp/hyperparameters.h"
@@ -158,10 +159,10 @@ int DynamicsModel::sample_count() const { return state_->n(); }
 int DynamicsModel::samples_since_fit() const { return state_->samples_since_fit; }
 bool DynamicsModel::fitted() const { return state_->fitted; }
 
-absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
-                                       const Eigen::MatrixXd& inputs,
-                                       const Eigen::MatrixXd& next_states) {
-  State& s = *state_;
+absl::Status DynamicsModel::CheckSamples(const Eigen::MatrixXd& states,
+                                         const Eigen::MatrixXd& inputs,
+                                         const Eigen::MatrixXd& next_states) const {
+  const State& s = *state_;
   const Eigen::Index m = states.rows();
   if (states.cols() != s.state_dim || next_states.cols() != s.state_dim ||
       inputs.cols() != s.input_dim || inputs.rows() != m || next_states.rows() != m) {
@@ -171,9 +172,51 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
                      states.cols(), ", ", inputs.rows(), "x", inputs.cols(), ", ",
                      next_states.rows(), "x", next_states.cols()));
   }
-  if (!states.allFinite() || !inputs.allFinite() || !next_states.allFinite()) {
-    return absl::InvalidArgumentError("samples contain non-finite values");
+  for (Eigen::Index i = 0; i < m; ++i) {
+    if (!states.row(i).allFinite() || !inputs.row(i).allFinite() ||
+        !next_states.row(i).allFinite()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("sample ", i, " contains non-finite values"));
+    }
+    if (s.options.target == Target::kDelta &&
+        !(next_states.row(i) - states.row(i)).allFinite()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "sample ", i, ": next_state - state overflows (the model's target)"));
+    }
   }
+  // Sums of values and of squares over all data, as the prior mean, the output
+  // standardisation and the input normalisation compute them: finite iff those are.
+  auto sums_finite = [](const Eigen::MatrixXd& old_rows,
+                        const Eigen::MatrixXd& new_rows) {
+    const Eigen::ArrayXd sum =
+        old_rows.colwise().sum().array() + new_rows.colwise().sum().array();
+    const Eigen::ArrayXd squares = old_rows.colwise().squaredNorm().array() +
+                                   new_rows.colwise().squaredNorm().array();
+    return sum.isFinite().all() && squares.isFinite().all();
+  };
+  const Eigen::MatrixXd targets = s.options.target == Target::kDelta
+                                      ? Eigen::MatrixXd(next_states - states)
+                                      : next_states;
+  if (!sums_finite(s.targets, targets)) {
+    return absl::InvalidArgumentError(
+        "the targets' mean or spread over all samples would overflow: values too large");
+  }
+  Eigen::MatrixXd z(m, s.z_dim);
+  z << states, inputs;
+  if (!sums_finite(s.z, z)) {
+    return absl::InvalidArgumentError(
+        "the inputs' spread over all samples would overflow: values too large");
+  }
+  return absl::OkStatus();
+}
+
+absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
+                                       const Eigen::MatrixXd& inputs,
+                                       const Eigen::MatrixXd& next_states) {
+  const ScopedFlushDenormals flush;
+  State& s = *state_;
+  if (absl::Status st = CheckSamples(states, inputs, next_states); !st.ok()) return st;
+  const Eigen::Index m = states.rows();
   if (m == 0) return absl::OkStatus();
   Eigen::MatrixXd z(m, s.z_dim);
   z << states, inputs;
@@ -221,6 +264,7 @@ absl::Status DynamicsModel::Rebuild() {
 
 absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
                                                 const FitStopFn& stop) {
+  const ScopedFlushDenormals flush;
   const auto t0 = std::chrono::steady_clock::now();
   State& s = *state_;
   const int n = s.n();
@@ -260,6 +304,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
   std::vector<GpModel> gps(outputs);
   std::vector<absl::StatusOr<FitSummary>> results(outputs, FitSummary{});
   auto fit_output = [&](int j) {
+    const ScopedFlushDenormals thread_flush;  // the fit's worker threads too
     const double var = out_std(j) * out_std(j);
     Eigen::VectorXd y = s.StandardisedTargets(j, out_std(j));
     if (!fit) {
@@ -378,6 +423,7 @@ void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
                             Eigen::MatrixXd* variance,
                             std::vector<Eigen::MatrixXd>* mean_jacobians,
                             std::vector<Eigen::MatrixXd>* variance_jacobians) const {
+  const ScopedFlushDenormals flush;
   const State& s = *state_;
   const Eigen::Index m = z.rows();
   const int sd = s.state_dim;

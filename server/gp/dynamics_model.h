@@ -71,10 +71,18 @@ class DynamicsModel final : public DynamicsPredictor {
   // Appends transitions (rows of the three matrices) and refreshes the prior
   // means. Before the first Refit() the data is only kept; after it each sample
   // costs O(n^2) per output (Cholesky row append), plus two O(n^2) solves per
-  // output for the new prior mean; hyperparameters unchanged. INVALID_ARGUMENT on shape
-  // mismatch or non-finite values (nothing is added then).
+  // output for the new prior mean; hyperparameters unchanged. INVALID_ARGUMENT
+  // when CheckSamples() fails (nothing is added then).
   absl::Status AddSamples(const Eigen::MatrixXd& states, const Eigen::MatrixXd& inputs,
                           const Eigen::MatrixXd& next_states);
+
+  // Whether AddSamples() would accept these transitions: shapes, finite values,
+  // and finite derived numbers the model computes from all its data with them
+  // (targets, their mean and spread, the inputs' spread). INVALID_ARGUMENT naming
+  // the first offending row. O((n + m) (state_dim + input_dim)); changes nothing,
+  // so a caller can check before it stores anything.
+  absl::Status CheckSamples(const Eigen::MatrixXd& states, const Eigen::MatrixXd& inputs,
+                            const Eigen::MatrixXd& next_states) const;
 
   // Refreshes the output standardisation, fits hyperparameters (if enabled,
   // warm-started from the previous fit) and refactorises: O(n^3) per output.

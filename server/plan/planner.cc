@@ -10,6 +10,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "server/gp/flush_denormals.h"
 #include "server/plan/chirp_signal.h"
 #include "server/plan/entropy_objective.h"
 #include "server/plan/information_objectives.h"
@@ -92,6 +93,7 @@ Planner::Planner(PlanOptions options) : options_(std::move(options)) {}
 absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
                                          const Eigen::VectorXd& x0, int64_t time_index,
                                          const PlanLimits& limits, PlanSummary* summary) {
+  const gp::ScopedFlushDenormals flush;  // Ipopt's and the model's arithmetic
   const Clock::time_point begin = Clock::now();
   const int dx = model.state_dim();
   const int du = model.input_dim();

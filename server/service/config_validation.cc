@@ -8,6 +8,7 @@
 #include "server/gp/hyperparameter_fit.h"
 #include "server/plan/planner.h"
 #include "server/service/field_violation.h"
+#include "server/service/value_ranges.h"
 
 namespace excite::service {
 namespace {
@@ -47,25 +48,45 @@ absl::Status CheckInterval(absl::string_view field, const v1::Interval& interval
   return absl::OkStatus();
 }
 
-// Positive bounds of a fit: lower > 0 too (they are bounds of log-parameters).
-absl::Status CheckPositiveBounds(absl::string_view field, v1::Interval* interval,
-                                 bool present, double def_lower, double def_upper) {
+// An interval of states or inputs (value_ranges.h: its half-width normalises the
+// model's inputs).
+absl::Status CheckDataInterval(absl::string_view field, const v1::Interval& interval) {
+  if (absl::Status s = CheckInterval(field, interval); !s.ok()) return s;
+  if (std::abs(interval.lower()) > kMaxAbsValue ||
+      std::abs(interval.upper()) > kMaxAbsValue) {
+    return Invalid(field,
+                   absl::StrCat("lower (", interval.lower(), ") and upper (",
+                                interval.upper(), ") must be within +-", kMaxAbsValue));
+  }
+  if (!(interval.upper() - interval.lower() >= kMinIntervalWidth)) {
+    return Invalid(field, absl::StrCat("upper - lower must be >= ", kMinIntervalWidth,
+                                       ", got ", interval.upper() - interval.lower()));
+  }
+  return absl::OkStatus();
+}
+
+// Positive bounds of a fit on standardised data, within [min, max] (they are
+// bounds of log-parameters).
+absl::Status CheckFitBounds(absl::string_view field, v1::Interval* interval, bool present,
+                            double def_lower, double def_upper, double min, double max) {
   if (!present) {
     interval->set_lower(def_lower);
     interval->set_upper(def_upper);
     return absl::OkStatus();
   }
   if (absl::Status s = CheckInterval(field, *interval); !s.ok()) return s;
-  if (!(interval->lower() > 0.0)) {
-    return Invalid(Field(field, "lower"),
-                   absl::StrCat("must be > 0, got ", interval->lower()));
+  if (!(interval->lower() >= min) || !(interval->upper() <= max)) {
+    return Invalid(field, absl::StrCat("must lie within [", min, ", ", max, "], got [",
+                                       interval->lower(), ", ", interval->upper(), "]"));
   }
   return absl::OkStatus();
 }
 
-absl::Status CheckPositive(absl::string_view field, double value) {
-  if (!std::isfinite(value) || !(value > 0.0)) {
-    return Invalid(field, absl::StrCat("must be a finite number > 0, got ", value));
+// A finite number in [min, max] (min > 0).
+absl::Status CheckPositive(absl::string_view field, double value, double min,
+                           double max) {
+  if (!std::isfinite(value) || !(value >= min) || !(value <= max)) {
+    return Invalid(field, absl::StrCat("must be in [", min, ", ", max, "], got ", value));
   }
   return absl::OkStatus();
 }
@@ -95,30 +116,31 @@ absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& con
                                 kernel->fixed_size(), " entries"));
   }
   const gp::FitOptions fit_defaults;
-  if (absl::Status s = CheckPositiveBounds(
+  if (absl::Status s = CheckFitBounds(
           Field(kpath, "lengthscale_bounds"), kernel->mutable_lengthscale_bounds(),
           kernel->has_lengthscale_bounds(), fit_defaults.min_lengthscale,
-          fit_defaults.max_lengthscale);
+          fit_defaults.max_lengthscale, kMinFitLengthscale, kMaxFitLengthscale);
       !s.ok()) {
     return s;
   }
-  if (absl::Status s = CheckPositiveBounds(
+  if (absl::Status s = CheckFitBounds(
           Field(kpath, "signal_variance_bounds"),
           kernel->mutable_signal_variance_bounds(), kernel->has_signal_variance_bounds(),
-          fit_defaults.min_signal_variance, fit_defaults.max_signal_variance);
+          fit_defaults.min_signal_variance, fit_defaults.max_signal_variance,
+          kMinFitSignalVariance, kMaxFitSignalVariance);
       !s.ok()) {
     return s;
   }
   int32_t restarts = kernel->restarts();
   if (absl::Status s = IntWithDefault(Field(kpath, "restarts"), &restarts,
-                                      fit_defaults.restarts, 0, 100);
+                                      fit_defaults.restarts, 0, kMaxFitRestarts);
       !s.ok()) {
     return s;
   }
   kernel->set_restarts(restarts);
   int32_t iterations = kernel->max_iterations();
   if (absl::Status s = IntWithDefault(Field(kpath, "max_iterations"), &iterations,
-                                      fit_defaults.max_iterations, 1, 10000);
+                                      fit_defaults.max_iterations, 1, kMaxFitIterations);
       !s.ok()) {
     return s;
   }
@@ -151,12 +173,13 @@ absl::Status ValidatePlanner(absl::string_view path, v1::PlannerConfig* planner)
                                 defaults.tolerance, "), got ", planner->tolerance()));
   }
   if (planner->time_budget_s() == 0.0) planner->set_time_budget_s(kDefaultTimeBudgetS);
-  if (!std::isfinite(planner->time_budget_s()) || !(planner->time_budget_s() > 0.0) ||
-      planner->time_budget_s() > 3600.0) {
-    return Invalid(
-        Field(ppath, "time_budget_s"),
-        absl::StrCat("must be in (0, 3600] seconds (0 for the default ",
-                     kDefaultTimeBudgetS, "), got ", planner->time_budget_s()));
+  if (!std::isfinite(planner->time_budget_s()) ||
+      !(planner->time_budget_s() >= kMinTimeBudgetS) ||
+      planner->time_budget_s() > kMaxTimeBudgetS) {
+    return Invalid(Field(ppath, "time_budget_s"),
+                   absl::StrCat("must be in [", kMinTimeBudgetS, ", ", kMaxTimeBudgetS,
+                                "] seconds (0 for the default ", kDefaultTimeBudgetS,
+                                "), got ", planner->time_budget_s()));
   }
   return absl::OkStatus();
 }
@@ -322,7 +345,7 @@ absl::Status ValidateSafety(absl::string_view path, v1::SessionConfig* config) {
   }
   for (int i = 0; i < safety->state_bounds_size(); ++i) {
     if (absl::Status s =
-            CheckInterval(Indexed(spath, "state_bounds", i), safety->state_bounds(i));
+            CheckDataInterval(Indexed(spath, "state_bounds", i), safety->state_bounds(i));
         !s.ok()) {
       return s;
     }
@@ -346,7 +369,8 @@ absl::Status ValidateHyperparameters(absl::string_view path,
                                      const v1::Hyperparameters& hyperparameters,
                                      int z_dim) {
   const v1::Hyperparameters& h = hyperparameters;
-  if (absl::Status s = CheckPositive(Field(path, "signal_variance"), h.signal_variance());
+  if (absl::Status s = CheckPositive(Field(path, "signal_variance"), h.signal_variance(),
+                                     kMinHyperVariance, kMaxHyperVariance);
       !s.ok()) {
     return s;
   }
@@ -357,12 +381,14 @@ absl::Status ValidateHyperparameters(absl::string_view path,
   }
   for (int l = 0; l < h.lengthscales_size(); ++l) {
     if (absl::Status s =
-            CheckPositive(Indexed(path, "lengthscales", l), h.lengthscales(l));
+            CheckPositive(Indexed(path, "lengthscales", l), h.lengthscales(l),
+                          kMinLengthscale, kMaxLengthscale);
         !s.ok()) {
       return s;
     }
   }
-  return CheckPositive(Field(path, "noise_variance"), h.noise_variance());
+  return CheckPositive(Field(path, "noise_variance"), h.noise_variance(),
+                       kMinHyperVariance, kMaxHyperVariance);
 }
 
 absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view path) {
@@ -383,7 +409,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
   }
   for (int i = 0; i < config->input_bounds_size(); ++i) {
     if (absl::Status s =
-            CheckInterval(Indexed(path, "input_bounds", i), config->input_bounds(i));
+            CheckDataInterval(Indexed(path, "input_bounds", i), config->input_bounds(i));
         !s.ok()) {
       return s;
     }
@@ -396,15 +422,15 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
   }
   for (int i = 0; i < config->state_bounds_size(); ++i) {
     if (absl::Status s =
-            CheckInterval(Indexed(path, "state_bounds", i), config->state_bounds(i));
+            CheckDataInterval(Indexed(path, "state_bounds", i), config->state_bounds(i));
         !s.ok()) {
       return s;
     }
   }
 
   const std::string npath = Field(path, "noise");
-  if (absl::Status s =
-          CheckPositive(Field(npath, "variance"), config->noise().variance());
+  if (absl::Status s = CheckPositive(Field(npath, "variance"), config->noise().variance(),
+                                     kMinNoiseVariance, kMaxNoiseVariance);
       !s.ok()) {
     return s;
   }

@@ -14,6 +14,9 @@ inline constexpr int kMaxInputDim = 32;
 inline constexpr int kMaxHorizon = 200;
 // Largest safety.margin (standard deviations).
 inline constexpr double kMaxSafetyMargin = 10.0;
+// Caps of the ML-II fit's work per refit (restarts x iterations x O(n^3)).
+inline constexpr int kMaxFitRestarts = 20;
+inline constexpr int kMaxFitIterations = 1000;
 
 // Defaults the proto documents that have no home in the engine's option structs.
 inline constexpr double kDefaultTimeBudgetS = 10.0;  // planner.time_budget_s
@@ -27,18 +30,19 @@ inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
 // `config` may be partly filled.
 //
 // Rules (a zero/unset number means "default" where a default is listed; the
-// defaults are those of gp::FitOptions and plan::PlanOptions, as the proto says):
+// defaults are those of gp::FitOptions and plan::PlanOptions, as the proto says;
+// the numeric ranges are value_ranges.h's, chosen so that the model stays finite):
 //   state_dim in [1, 64]; input_dim in [1, 32];
-//   input_bounds: exactly input_dim intervals, finite, lower < upper;
-//   state_bounds: 0 or state_dim intervals, finite, lower < upper;
-//   noise.variance finite > 0; noise.fit only with kernel.fit;
-//   kernel.fit = false: kernel.fixed has state_dim entries, each with
-//     signal_variance > 0, state_dim + input_dim lengthscales > 0 and
-//     noise_variance > 0 (all finite); kernel.fit = true: kernel.fixed empty;
-//   kernel.lengthscale_bounds default [0.05, 50], signal_variance_bounds default
-//     [0.01, 100]: finite, 0 < lower < upper;
-//   kernel.restarts in [0, 100] (0: default 2); kernel.max_iterations in
-//     [0, 10000] (0: default 60);
+//   input_bounds: exactly input_dim intervals, lower < upper, both within
+//     +-1e30, upper - lower >= 1e-30;
+//   state_bounds: 0 or state_dim intervals, as input_bounds;
+//   noise.variance in [1e-30, 1e30]; noise.fit only with kernel.fit;
+//   kernel.fit = false: kernel.fixed has state_dim entries (ValidateHyperparameters);
+//     kernel.fit = true: kernel.fixed empty;
+//   kernel.lengthscale_bounds default [0.05, 50], within [1e-6, 1e6];
+//     signal_variance_bounds default [0.01, 100], within [1e-12, 1e12]; lower < upper;
+//   kernel.restarts in [0, 20] (0: default 2); kernel.max_iterations in
+//     [0, 1000] (0: default 60);
 //   target: UNSPECIFIED -> DELTA; strategy: UNSPECIFIED -> REC; unknown values are
 //     rejected; STRATEGY_SEP and STRATEGY_ROI require state_dim state_bounds;
 //   horizon in [0, 200] (0: default 15); GREEDY forces 1;
@@ -46,7 +50,7 @@ inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
 //     {0} or [2, 1000000] (0: default 2; a fit needs 2 samples);
 //   planner.max_iterations in [0, 10000] (0: default 100); planner.restarts in
 //     [0, 100] (0: default 1); planner.tolerance 0 (default 1e-4) or finite in
-//     (0, 1); planner.time_budget_s 0 (default 10) or finite in (0, 3600];
+//     (0, 1); planner.time_budget_s 0 (default 10) or in [0.001, 3600];
 //   signal (plan::SignalOptions defaults): prbs_min_hold, chirp_period and
 //     random_hold in [1, 1000000] (0: default 5, 200, 1); chirp_start_frequency
 //     and chirp_end_frequency finite in (0, 0.5] (0: default 0.01, 0.2);
@@ -54,7 +58,7 @@ inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
 //     search_samples in [1, 100000] (0: default 256), search_iterations in
 //     [1, 10000] (0: default 50);
 //   roi: reference_points in [1, 4096] (0: default 256);
-//   safety: state_bounds 0 or state_dim intervals, finite, lower < upper; margin
+//   safety: state_bounds 0 or state_dim intervals, as state_bounds; margin
 //     finite in [0, kMaxSafetyMargin] (unset with a box: 2).
 //   signal, sep and roi fields that are set are checked whatever the strategy, but
 //   defaults are filled in only for the fields the session's strategy uses (prbs:
@@ -65,8 +69,9 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config,
                                    absl::string_view path = "config");
 
 // One output's hyperparameters in data units (kernel.fixed[i], or the saved ones
-// of a SessionArchive): signal_variance > 0, `z_dim` (state_dim + input_dim)
-// lengthscales > 0 and noise_variance > 0, all finite. INVALID_ARGUMENT naming
+// of a SessionArchive): signal_variance and noise_variance in [1e-100, 1e100],
+// `z_dim` (state_dim + input_dim) lengthscales in [1e-50, 1e50] (wide enough for
+// every fit the server makes, value_ranges.h). INVALID_ARGUMENT naming
 // the field under `path`, e.g. "config.kernel.fixed[1].lengthscales[2]".
 absl::Status ValidateHyperparameters(absl::string_view path,
                                      const v1::Hyperparameters& hyperparameters,

@@ -113,6 +113,16 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
         MetricsHttpServer::Start(options.metrics_listen, server->metrics_.get());
     if (!http.ok()) return http.status();
     server->metrics_http_ = *std::move(http);
+    std::string metrics_host;
+    int metrics_port = 0;
+    if (SplitHostPort(options.metrics_listen, &metrics_host, &metrics_port).ok() &&
+        !IsLoopbackHost(metrics_host)) {
+      Log(LogLevel::kWarning,
+          absl::StrCat("metrics on ", options.metrics_listen,
+                       ": plain HTTP without a token, readable by anyone who can reach "
+                       "the port (session counts, timings); listen on 127.0.0.1 unless "
+                       "a network policy restricts it"));
+    }
   }
   if (grpc::HealthCheckServiceInterface* health =
           server->server_->GetHealthCheckService()) {

@@ -34,8 +34,8 @@ Clock::time_point ClientDeadline(const grpc::ServerContext& context) {
   return Clock::now() + left;
 }
 
-// min(ClientDeadline, now + budget).
-Clock::time_point PlanDeadline(const grpc::ServerContext& context, double budget_s) {
+// min(ClientDeadline, now + budget): PlanInputs, and the refit of a Predict.
+Clock::time_point BudgetDeadline(const grpc::ServerContext& context, double budget_s) {
   const Clock::time_point budget_end =
       Clock::now() + std::chrono::duration_cast<Clock::duration>(
                          std::chrono::duration<double>(budget_s));
@@ -212,6 +212,12 @@ grpc::Status ExplorationService::AddData(grpc::ServerContext* context,
       }
       absl::StatusOr<v1::AddDataResponse> added =
           session->AddTransitions(request.transitions(), limits_.max_samples_per_session);
+      if (absl::IsInvalidArgument(added.status())) {
+        return WithMessage(added.status(),
+                           absl::StrCat("AddData message ", message_index, ": ",
+                                        added.status().message(),
+                                        " (earlier messages of the stream are stored)"));
+      }
       if (!added.ok()) return added.status();
       stored += added->stored();
       duplicates += added->duplicates();
@@ -244,9 +250,10 @@ grpc::Status ExplorationService::Predict(grpc::ServerContext* context,
         !s.ok()) {
       return s;
     }
-    absl::StatusOr<v1::PredictResponse> predicted =
-        (*session)->Predict(*request, ClientDeadline(*context),
-                            [context]() { return context->IsCancelled(); });
+    absl::StatusOr<v1::PredictResponse> predicted = (*session)->Predict(
+        *request,
+        BudgetDeadline(*context, (*session)->config().planner().time_budget_s()),
+        [context]() { return context->IsCancelled(); });
     if (!predicted.ok()) return predicted.status();
     *response = *std::move(predicted);
     return absl::OkStatus();
@@ -265,7 +272,7 @@ grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
       return s;
     }
     const Clock::time_point deadline =
-        PlanDeadline(*context, (*session)->config().planner().time_budget_s());
+        BudgetDeadline(*context, (*session)->config().planner().time_budget_s());
     absl::StatusOr<v1::PlanInputsResponse> plan = (*session)->PlanInputs(
         *request, deadline, [context]() { return context->IsCancelled(); });
     if (!plan.ok()) return plan.status();

@@ -6,9 +6,20 @@
 #include "absl/container/flat_hash_map.h"
 #include "absl/strings/str_cat.h"
 #include "server/service/field_violation.h"
+#include "server/service/value_ranges.h"
 
 namespace excite::service {
 namespace {
+
+// A finite number within +-kMaxAbsValue (value_ranges.h: what the model can
+// compute with).
+bool InRange(double value) {
+  return std::isfinite(value) && std::abs(value) <= kMaxAbsValue;
+}
+
+std::string OutOfRange(double value) {
+  return absl::StrCat("must be finite and within +-", kMaxAbsValue, ", got ", value);
+}
 
 absl::Status CheckVector(absl::string_view field,
                          const google::protobuf::RepeatedField<double>& values,
@@ -19,9 +30,8 @@ absl::Status CheckVector(absl::string_view field,
                                             ") numbers, got ", values.size()));
   }
   for (int i = 0; i < values.size(); ++i) {
-    if (!std::isfinite(values[i])) {
-      return FieldViolationError(absl::StrCat(field, "[", i, "]"),
-                                 absl::StrCat("must be finite, got ", values[i]));
+    if (!InRange(values[i])) {
+      return FieldViolationError(absl::StrCat(field, "[", i, "]"), OutOfRange(values[i]));
     }
   }
   return absl::OkStatus();
@@ -95,10 +105,10 @@ absl::Status ValidatePredictInputs(const v1::SessionConfig& config,
                                                      max_points, " per Predict call"));
   }
   for (int i = 0; i < inputs.size(); ++i) {
-    if (!std::isfinite(inputs[i])) {
+    if (!InRange(inputs[i])) {
       return FieldViolationError(
           absl::StrCat("inputs[", i, "]"),
-          absl::StrCat("(point ", i / z_dim, ") must be finite, got ", inputs[i]));
+          absl::StrCat("(point ", i / z_dim, ") ", OutOfRange(inputs[i])));
     }
   }
   return absl::OkStatus();

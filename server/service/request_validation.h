@@ -12,7 +12,8 @@
 namespace excite::service {
 
 // Checks one AddData message's transitions against a (validated) session config:
-// state/next_state of state_dim and input of input_dim numbers, all finite;
+// state/next_state of state_dim and input of input_dim numbers, all finite and
+// within +-kMaxAbsValue (value_ranges.h);
 // sequence >= 0; finite timestamp_s; no sequence number twice in the message.
 // INVALID_ARGUMENT naming the field under `field`, e.g.
 // "transitions[3].state[1]: ..." (a SessionArchive's samples: "archive.samples").
@@ -22,13 +23,14 @@ absl::Status ValidateTransitions(
     absl::string_view field = "transitions");
 
 // Checks a Predict batch: non-empty, a multiple of state_dim + input_dim numbers,
-// all finite (INVALID_ARGUMENT naming "inputs"); at most `max_points` points
-// (RESOURCE_EXHAUSTED).
+// all finite and within +-kMaxAbsValue (INVALID_ARGUMENT naming "inputs"); at most
+// `max_points` points (RESOURCE_EXHAUSTED).
 absl::Status ValidatePredictInputs(const v1::SessionConfig& config,
                                    const google::protobuf::RepeatedField<double>& inputs,
                                    int64_t max_points);
 
-// Checks a PlanInputs state: state_dim finite numbers (INVALID_ARGUMENT "state").
+// Checks a PlanInputs state: state_dim finite numbers within +-kMaxAbsValue
+// (INVALID_ARGUMENT "state").
 absl::Status ValidatePlanState(const v1::SessionConfig& config,
                                const google::protobuf::RepeatedField<double>& state);
 

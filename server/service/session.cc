@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "server/service/field_violation.h"
 #include "server/service/logging.h"
 #include "server/service/resource_name.h"
 #include "server/service/session_archive.h"
@@ -16,6 +17,10 @@ namespace {
 
 using RowMajorMatrix =
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// Entries of one Predict chunk's cross-covariance matrix (points x samples):
+// 2^21 doubles, 16 MiB.
+constexpr Eigen::Index kPredictChunkEntries = Eigen::Index{1} << 21;
 
 v1::SolverStatus ToProto(plan::PlanStatus status) {
   switch (status) {
@@ -226,6 +231,25 @@ absl::Status Session::CheckUsable() {
   return absl::OkStatus();
 }
 
+absl::Status Session::CheckModelAccepts(const std::vector<store::SampleRecord>& batch) {
+  const int dx = config_.state_dim();
+  const int du = config_.input_dim();
+  const Eigen::Index m = static_cast<Eigen::Index>(batch.size());
+  Eigen::MatrixXd states(m, dx), inputs(m, du), next_states(m, dx);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const store::SampleRecord& r = batch[static_cast<size_t>(i)];
+    states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(r.state.data(), dx);
+    inputs.row(i) = Eigen::Map<const Eigen::RowVectorXd>(r.input.data(), du);
+    next_states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(r.next_state.data(), dx);
+  }
+  absl::Status checked = model_.CheckSamples(states, inputs, next_states);
+  if (checked.ok()) return checked;
+  return FieldViolationError(
+      "transitions",
+      absl::StrCat("the model of session ", name_,
+                   " cannot take them (nothing was stored): ", checked.message()));
+}
+
 absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
     const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
     int64_t max_samples) {
@@ -244,6 +268,7 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
           "session ", name_, " has ", sample_count_, " samples; ", batch.size(),
           " more would exceed the cap of ", max_samples, " per session"));
     }
+    if (absl::Status s = CheckModelAccepts(batch); !s.ok()) return s;
     const Clock::time_point write_start = Clock::now();
     absl::StatusOr<store::InsertResult> inserted = store_->InsertSamples(id_, batch);
     if (metrics_ != nullptr && inserted.ok()) {
@@ -382,29 +407,44 @@ absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& r
   const int dx = config_.state_dim();
   const int z_dim = dx + config_.input_dim();
   const Eigen::Index m = request.inputs_size() / z_dim;
+  // Chunks of at most kPredictChunkEntries / n points: the cross-covariances of
+  // one chunk (chunk x n per output) bound the call's memory, whatever m is.
+  const Eigen::Index chunk = std::max<Eigen::Index>(
+      1, kPredictChunkEntries / std::max<Eigen::Index>(1, sample_count_));
   v1::PredictResponse response;
+  response.mutable_mean()->Reserve(static_cast<int>(m * dx));
+  response.mutable_variance()->Reserve(static_cast<int>(m * dx));
+  const Eigen::VectorXd noise =
+      request.include_noise() ? model_.noise_variances() : Eigen::VectorXd();
   try {
-    const Eigen::MatrixXd z =
-        Eigen::Map<const RowMajorMatrix>(request.inputs().data(), m, z_dim);
-    Eigen::MatrixXd mean;
-    Eigen::MatrixXd variance;
-    model_.Predict(z, &mean, &variance, nullptr, nullptr);
-    if (mean.rows() != m || mean.cols() != dx || variance.rows() != m ||
-        variance.cols() != dx) {
-      return absl::InternalError(absl::StrCat("session ", name_,
-                                              ": the model returned a prediction of the "
-                                              "wrong shape"));
-    }
-    if (request.include_noise()) {
-      const Eigen::VectorXd noise = model_.noise_variances();
+    for (Eigen::Index first = 0; first < m; first += chunk) {
+      if (first > 0 && (Clock::now() >= deadline || (cancelled && cancelled()))) {
+        if (cancelled && cancelled()) {
+          return absl::CancelledError("Predict was cancelled by the client");
+        }
+        return absl::DeadlineExceededError(absl::StrCat(
+            "Predict on ", name_, ": the deadline passed after ", first, " of ", m,
+            " points; ask for fewer points per call or allow more time"));
+      }
+      const Eigen::Index rows = std::min(chunk, m - first);
+      const Eigen::MatrixXd z = Eigen::Map<const RowMajorMatrix>(
+          request.inputs().data() + first * z_dim, rows, z_dim);
+      Eigen::MatrixXd mean;
+      Eigen::MatrixXd variance;
+      model_.Predict(z, &mean, &variance, nullptr, nullptr);
+      if (mean.rows() != rows || mean.cols() != dx || variance.rows() != rows ||
+          variance.cols() != dx) {
+        return absl::InternalError(absl::StrCat(
+            "session ", name_, ": the model returned a prediction of the wrong shape"));
+      }
       if (noise.size() == dx) variance.rowwise() += noise.transpose();
+      if (!mean.allFinite() || !variance.allFinite()) {
+        return absl::InternalError(
+            absl::StrCat("session ", name_, ": the model predicted non-finite numbers"));
+      }
+      AppendRowMajor(mean, response.mutable_mean());
+      AppendRowMajor(variance, response.mutable_variance());
     }
-    if (!mean.allFinite() || !variance.allFinite()) {
-      return absl::InternalError(
-          absl::StrCat("session ", name_, ": the model predicted non-finite numbers"));
-    }
-    AppendRowMajor(mean, response.mutable_mean());
-    AppendRowMajor(variance, response.mutable_variance());
   } catch (const std::exception& e) {
     return InternalFromException(absl::StrCat("Predict on ", name_), e);
   }

@@ -72,10 +72,11 @@ class Session {
   // or restored with saved hyperparameters) outputs.
   v1::Session Describe() const;
 
-  // One AddData message: validates it completely (request_validation.h), stores
-  // it durably (one transaction), then adds the newly stored transitions to the
-  // GP. The response counts this message only. NOT_FOUND if the session was
-  // deleted, RESOURCE_EXHAUSTED if the session would exceed `max_samples`.
+  // One AddData message (validated with ValidateTransitions): checks that the
+  // model can take it (INVALID_ARGUMENT, nothing stored, if not), stores it
+  // durably (one transaction), then adds the newly stored transitions to the GP. The
+  // response counts this message only. NOT_FOUND if the session was deleted,
+  // RESOURCE_EXHAUSTED if the session would exceed `max_samples`.
   absl::StatusOr<v1::AddDataResponse> AddTransitions(
       const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
       int64_t max_samples);
@@ -122,6 +123,11 @@ class Session {
           store::SqliteStore* store);
 
   absl::Status CheckUsable() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // INVALID_ARGUMENT unless the model can add `batch` (GP DynamicsModel::
+  // CheckSamples): checked before anything is stored, so that no stored sample
+  // can leave a model that cannot answer.
+  absl::Status CheckModelAccepts(const std::vector<store::SampleRecord>& batch)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // FAILED_PRECONDITION before min_samples, then the lazy refit, stopped early
   // (DEADLINE_EXCEEDED / CANCELLED) by `deadline` or `cancelled`.
   absl::Status EnsureFitted(Clock::time_point deadline,

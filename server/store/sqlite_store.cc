@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <sqlite3.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -55,7 +56,7 @@ SessionRecord SessionFromRow(const SqliteStatement& stmt) {
 // that two servers never share one data directory.
 absl::StatusOr<int> LockDataDir(const std::filesystem::path& dir) {
   const std::string lock_path = (dir / "excite.lock").string();
-  const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
   if (fd < 0) {
     return absl::FailedPreconditionError(
         absl::StrCat("cannot open ", lock_path, ": ", std::strerror(errno)));
@@ -74,6 +75,47 @@ absl::StatusOr<int> LockDataDir(const std::filesystem::path& dir) {
   return fd;
 }
 
+// The store holds users' measurements: only the server's user may read it,
+// whatever the umask or the files' earlier modes. SQLite creates -wal and -shm
+// with the mode of the database file, so that file is created (or narrowed)
+// before SQLite opens it; files left by an older version are narrowed too. The
+// directory becomes 0700 when the server's user owns it; a directory owned by
+// someone else (a Kubernetes volume with fsGroup) keeps its mode, the files
+// inside are 0600 all the same.
+absl::Status RestrictPermissions(const std::filesystem::path& dir) {
+  std::error_code ec;
+  struct stat dir_stat {};
+  if (::stat(dir.c_str(), &dir_stat) == 0 && dir_stat.st_uid == ::geteuid()) {
+    std::filesystem::permissions(dir, std::filesystem::perms::owner_all,
+                                 std::filesystem::perm_options::replace, ec);
+    if (ec) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("cannot make data directory ", dir.string(),
+                       " private (0700): ", ec.message()));
+    }
+  }
+  const std::filesystem::path db = dir / "excite.db";
+  const int fd = ::open(db.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+  if (fd < 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("cannot open ", db.string(), ": ", std::strerror(errno)));
+  }
+  ::close(fd);
+  for (const char* name :
+       {"excite.db", "excite.db-wal", "excite.db-shm", "excite.lock"}) {
+    const std::filesystem::path file = dir / name;
+    if (!std::filesystem::exists(file, ec)) continue;
+    std::filesystem::permissions(
+        file, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write,
+        std::filesystem::perm_options::replace, ec);
+    if (ec) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("cannot make ", file.string(), " private (0600): ", ec.message()));
+    }
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(
@@ -90,6 +132,10 @@ absl::StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(
   }
   absl::StatusOr<int> lock_fd = LockDataDir(dir);
   if (!lock_fd.ok()) return lock_fd.status();
+  if (absl::Status s = RestrictPermissions(dir); !s.ok()) {
+    ::close(*lock_fd);
+    return s;
+  }
 
   const std::string path = (dir / "excite.db").string();
   sqlite3* db = nullptr;

@@ -37,7 +37,9 @@ class SqliteStore {
   // schema. FAILED_PRECONDITION if the database has a schema version this build
   // does not know (e.g. written by a newer excite-server) or if another store
   // (in this or another process) has the directory open: an exclusive flock on
-  // <data_dir>/excite.lock is held for the store's lifetime.
+  // <data_dir>/excite.lock is held for the store's lifetime. The files are made
+  // 0600 and the directory 0700 (if the server's user owns it), whatever the
+  // umask.
   static absl::StatusOr<std::unique_ptr<SqliteStore>> Open(const std::string& data_dir);
 
   ~SqliteStore();

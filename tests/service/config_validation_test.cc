@@ -137,12 +137,23 @@ TEST(ConfigValidationTest, StateBounds) {
   c = Valid();
   c.mutable_state_bounds(1)->set_lower(8);
   ExpectInvalid(c, "config.state_bounds[1]", "lower (8) must be < upper (8)");
+  // Intervals normalise the model's inputs: within +-1e30, at least 1e-30 wide.
+  c = Valid();
+  c.mutable_state_bounds(0)->set_lower(-1e308);
+  ExpectInvalid(c, "config.state_bounds[0]", "must be within +-1e+30");
+  c = Valid();
+  c.mutable_state_bounds(0)->set_lower(1e-300);
+  c.mutable_state_bounds(0)->set_upper(2e-300);
+  ExpectInvalid(c, "config.state_bounds[0]", "upper - lower must be >= 1e-30");
+  c = Valid();
+  c.mutable_input_bounds(0)->set_upper(1e31);
+  ExpectInvalid(c, "config.input_bounds[0]", "must be within +-1e+30");
 }
 
 TEST(ConfigValidationTest, Noise) {
   v1::SessionConfig c = Valid();
   c.clear_noise();
-  ExpectInvalid(c, "config.noise.variance", "> 0, got 0");
+  ExpectInvalid(c, "config.noise.variance", "must be in [1e-30, 1e+30], got 0");
   c = Valid();
   c.mutable_noise()->set_variance(-1);
   ExpectInvalid(c, "config.noise.variance");
@@ -173,13 +184,25 @@ TEST(ConfigValidationTest, FixedKernel) {
                 "state_dim (2) entries when kernel.fit is false");
   c = FixedKernel();
   c.mutable_kernel()->mutable_fixed(1)->set_signal_variance(0);
-  ExpectInvalid(c, "config.kernel.fixed[1].signal_variance", "> 0");
+  ExpectInvalid(c, "config.kernel.fixed[1].signal_variance", "[1e-100, 1e+100]");
   c = FixedKernel();
   c.mutable_kernel()->mutable_fixed(0)->add_lengthscales(1.0);
   ExpectInvalid(c, "config.kernel.fixed[0].lengthscales", "(3) entries, got 4");
   c = FixedKernel();
   c.mutable_kernel()->mutable_fixed(0)->set_lengthscales(2, -1.0);
-  ExpectInvalid(c, "config.kernel.fixed[0].lengthscales[2]", "> 0");
+  ExpectInvalid(c, "config.kernel.fixed[0].lengthscales[2]", "[1e-50, 1e+50]");
+  // The configs that could never work: finite, positive, but absurd.
+  c = FixedKernel();
+  c.mutable_kernel()->mutable_fixed(0)->set_signal_variance(1.7e308);
+  ExpectInvalid(c, "config.kernel.fixed[0].signal_variance", "got 1.7e+308");
+  c = FixedKernel();
+  c.mutable_kernel()->mutable_fixed(0)->set_lengthscales(0, 5e-324);
+  ExpectInvalid(c, "config.kernel.fixed[0].lengthscales[0]", "[1e-50, 1e+50]");
+  c = FixedKernel();
+  c.mutable_kernel()->mutable_fixed(0)->set_lengthscales(0, 1e-50);
+  c.mutable_kernel()->mutable_fixed(0)->set_signal_variance(1e100);
+  c.mutable_kernel()->mutable_fixed(0)->set_noise_variance(1e-100);
+  EXPECT_TRUE(ValidateSessionConfig(&c).ok());  // the corners are allowed
   c = FixedKernel();
   c.mutable_kernel()->mutable_fixed(0)->set_noise_variance(std::nan(""));
   ExpectInvalid(c, "config.kernel.fixed[0].noise_variance");
@@ -216,7 +239,12 @@ TEST(ConfigValidationTest, FitBoundsAndCounts) {
   v1::SessionConfig c = Valid();
   c.mutable_kernel()->mutable_lengthscale_bounds()->set_lower(0);
   c.mutable_kernel()->mutable_lengthscale_bounds()->set_upper(10);
-  ExpectInvalid(c, "config.kernel.lengthscale_bounds.lower", "> 0");
+  ExpectInvalid(c, "config.kernel.lengthscale_bounds",
+                "within [1e-06, 1e+06], got [0, 10]");
+  c = Valid();
+  c.mutable_kernel()->mutable_signal_variance_bounds()->set_lower(1e-3);
+  c.mutable_kernel()->mutable_signal_variance_bounds()->set_upper(1e300);
+  ExpectInvalid(c, "config.kernel.signal_variance_bounds", "within [1e-12, 1e+12]");
   c = Valid();
   c.mutable_kernel()->mutable_signal_variance_bounds()->set_lower(5);
   c.mutable_kernel()->mutable_signal_variance_bounds()->set_upper(1);
@@ -224,10 +252,16 @@ TEST(ConfigValidationTest, FitBoundsAndCounts) {
                 "lower (5) must be < upper (1)");
   c = Valid();
   c.mutable_kernel()->set_restarts(-1);
-  ExpectInvalid(c, "config.kernel.restarts", "[0, 100]");
+  ExpectInvalid(c, "config.kernel.restarts", "[0, 20]");
+  c = Valid();
+  c.mutable_kernel()->set_restarts(100);  // 25 s of refit at 400 samples
+  ExpectInvalid(c, "config.kernel.restarts", "[0, 20]");
   c = Valid();
   c.mutable_kernel()->set_max_iterations(-3);
   ExpectInvalid(c, "config.kernel.max_iterations");
+  c = Valid();
+  c.mutable_kernel()->set_max_iterations(10000);
+  ExpectInvalid(c, "config.kernel.max_iterations", "[1, 1000]");
 }
 
 TEST(ConfigValidationTest, EnumsAndHorizon) {
@@ -264,6 +298,9 @@ TEST(ConfigValidationTest, RefitAndPlanner) {
   c = Valid();
   c.mutable_planner()->set_time_budget_s(-2);
   ExpectInvalid(c, "config.planner.time_budget_s");
+  c = Valid();
+  c.mutable_planner()->set_time_budget_s(1e-300);  // no solve returns in that
+  ExpectInvalid(c, "config.planner.time_budget_s", "[0.001, 3600]");
   c = Valid();
   c.mutable_planner()->set_time_budget_s(std::nan(""));
   ExpectInvalid(c, "config.planner.time_budget_s");

@@ -2,6 +2,7 @@
 // announcing the port, grpc.health.v1 SERVING, and a clean exit 0 on SIGTERM.
 
 #include <signal.h>
+#include <sys/stat.h>
 
 #include <chrono>
 #include <cstdio>
@@ -89,6 +90,37 @@ TEST(ServerBinaryTest, AnnouncesPortServesHealthAndExitsCleanlyOnSigterm) {
   auto client2 = client::ExciteClient::Connect("127.0.0.1:" + port2);
   EXPECT_TRUE(client2->GetSession("sessions/bin").ok());
   EXPECT_EQ(again.SignalAndWait(SIGINT, std::chrono::seconds(15)), 0);
+}
+
+TEST(ServerBinaryTest, RefusesAnEmptyAuthTokenFromTheEnvironment) {
+  excite::testing::TempDir tmp;
+  // The child inherits the environment; an empty token used to switch
+  // authentication off silently.
+  ASSERT_EQ(setenv("EXCITE_AUTH_TOKEN", " ", 1), 0);
+  ServerProcess server(tmp.path() + "/data");
+  unsetenv("EXCITE_AUTH_TOKEN");
+  EXPECT_EQ(server.ReadLine(), "");  // never listened
+  EXPECT_EQ(server.SignalAndWait(0, std::chrono::seconds(15)), 2);
+}
+
+TEST(ServerBinaryTest, StoreFilesArePrivateWhateverTheUmask) {
+  excite::testing::TempDir tmp;
+  const std::string dir = tmp.path() + "/data";
+  const mode_t old_umask = umask(0);  // inherited by the child
+  ServerProcess server(dir);
+  umask(old_umask);
+  ASSERT_FALSE(ListeningPort(server.ReadLine()).empty());
+  // The store is open (and its schema written) once the server listens.
+  struct stat st {};
+  ASSERT_EQ(stat(dir.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0700u);
+  for (const char* name :
+       {"excite.db", "excite.db-wal", "excite.db-shm", "excite.lock"}) {
+    const std::string path = dir + "/" + name;
+    ASSERT_EQ(stat(path.c_str(), &st), 0) << path;
+    EXPECT_EQ(st.st_mode & 0777, 0600u) << path;
+  }
+  EXPECT_EQ(server.SignalAndWait(SIGTERM, std::chrono::seconds(15)), 0);
 }
 
 }  // namespace

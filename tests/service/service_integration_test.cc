@@ -307,7 +307,7 @@ TEST_F(ServiceTest, SepNeedsStateBoundsAndPlansOverTheWire) {
 TEST_F(ServiceTest, TinyTimeBudgetGivesTimeLimitOrDeadlineExceeded) {
   v1::SessionConfig config = PendulumConfig();
   config.set_horizon(30);
-  config.mutable_planner()->set_time_budget_s(1e-4);
+  config.mutable_planner()->set_time_budget_s(1e-3);  // the least allowed
   const std::string name = Create("tiny-budget", config).name();
   Add(name, {PendulumTransitions(30, 0, 4)});
   absl::StatusOr<v1::PlanInputsResponse> plan = client_->PlanInputs(name, {0.0, 0.0});

@@ -1,0 +1,220 @@
+// No number a request can carry may poison a session: what is out of range is
+// INVALID_ARGUMENT naming the field and stores nothing, and whatever is accepted
+// leaves a session that answers Predict and PlanInputs (also after a restart).
+
+#include <array>
+#include <cmath>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "gtest/gtest.h"
+#include "tests/service/pendulum_data.h"
+#include "tests/service/service_fixture.h"
+
+namespace excite::service {
+namespace {
+
+using ::excite::testing::ExpectStatus;
+using ::excite::testing::PendulumConfig;
+using ::excite::testing::PendulumTransitions;
+using ::excite::testing::ServiceTest;
+
+v1::Transition MakeTransition(std::vector<double> x, double u, std::vector<double> next,
+                              int64_t sequence) {
+  v1::Transition t;
+  for (double v : x) t.add_state(v);
+  t.add_input(u);
+  for (double v : next) t.add_next_state(v);
+  t.set_sequence(sequence);
+  return t;
+}
+
+v1::SessionConfig FixedKernelConfig() {
+  v1::SessionConfig config = PendulumConfig();
+  config.mutable_noise()->set_fit(false);
+  v1::KernelConfig* kernel = config.mutable_kernel();
+  kernel->Clear();
+  kernel->set_fit(false);
+  for (int j = 0; j < 2; ++j) {
+    v1::Hyperparameters* h = kernel->add_fixed();
+    h->set_signal_variance(1.0);
+    for (int l = 0; l < 3; ++l) h->add_lengthscales(1.0);
+    h->set_noise_variance(1e-4);
+  }
+  return config;
+}
+
+class HostileValuesTest : public ServiceTest {
+ protected:
+  // Predict at one point and PlanInputs from one state both succeed.
+  void ExpectAnswers(const std::string& name) {
+    v1::PredictRequest predict;
+    predict.set_session(name);
+    for (double v : {0.1, -0.2, 0.3}) predict.add_inputs(v);
+    absl::StatusOr<v1::PredictResponse> predicted = client_->Predict(predict);
+    ASSERT_TRUE(predicted.ok()) << name << ": " << predicted.status();
+    for (double v : predicted->mean()) EXPECT_TRUE(std::isfinite(v));
+    absl::StatusOr<v1::PlanInputsResponse> plan = client_->PlanInputs(name, {0.0, 0.0});
+    ASSERT_TRUE(plan.ok()) << name << ": " << plan.status();
+  }
+};
+
+TEST_F(HostileValuesTest, HugeFiniteTransitionsAreRejectedAndStoreNothing) {
+  for (const v1::SessionConfig& config : {PendulumConfig(), FixedKernelConfig()}) {
+    const std::string name =
+        Create(config.kernel().fit() ? "fitted" : "fixed", config).name();
+    Add(name, {PendulumTransitions(10, 0, 3)});
+    // The requests: a delta target that overflows, and 1e154, whose
+    // square overflows in a fitted kernel's standardisation.
+    for (double huge : {1e308, 1e154, 1e31}) {
+      absl::StatusOr<v1::AddDataResponse> added =
+          client_->AddData(name, {{MakeTransition({huge, 0}, 0, {-huge, 0}, 100)}});
+      ExpectStatus(added.status(), absl::StatusCode::kInvalidArgument,
+                   "transitions[0].state[0]: must be finite and within +-1e+30");
+      absl::StatusOr<v1::Session> session = client_->GetSession(name);
+      ASSERT_TRUE(session.ok());
+      EXPECT_EQ(session->sample_count(), 10) << huge;
+    }
+    // The largest accepted values go in, and the session still answers.
+    Add(name, {{MakeTransition({1e30, -1e30}, 3, {-1e30, 1e30}, 10)}});
+    ExpectAnswers(name);
+  }
+  StopServer();
+  StartServer();
+  ExpectAnswers("sessions/fitted");
+  ExpectAnswers("sessions/fixed");
+}
+
+TEST_F(HostileValuesTest, HugeQueriesAreInvalidArgumentNotInternal) {
+  const std::string name = Create("queries").name();
+  Add(name, {PendulumTransitions(10, 0, 3)});
+  v1::PredictRequest predict;
+  predict.set_session(name);
+  for (double v : {-1e308, 0.0, 1.7e308}) predict.add_inputs(v);
+  ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kInvalidArgument,
+               "inputs[0]: (point 0) must be finite and within +-1e+30");
+  ExpectStatus(client_->PlanInputs(name, {0.0, 1e308}).status(),
+               absl::StatusCode::kInvalidArgument,
+               "state[1]: must be finite and within +-1e+30");
+  // At the edge of the range both still answer: far from the data the model
+  // is its prior.
+  predict.clear_inputs();
+  for (double v : {1e30, -1e30, 1e30}) predict.add_inputs(v);
+  absl::StatusOr<v1::PredictResponse> far = client_->Predict(predict);
+  ASSERT_TRUE(far.ok()) << far.status();
+  for (double v : far->variance()) EXPECT_TRUE(std::isfinite(v) && v > 0);
+  absl::StatusOr<v1::PlanInputsResponse> plan = client_->PlanInputs(name, {1e30, -1e30});
+  ASSERT_TRUE(plan.ok()) << plan.status();
+}
+
+TEST_F(HostileValuesTest, ExtremeButValidHyperparametersStillAnswer) {
+  // The corners of the accepted ranges (value_ranges.h) with the largest data.
+  for (const auto& [lengthscale, variance, noise] : std::vector<std::array<double, 3>>{
+           {1e-50, 1e100, 1e-100}, {1e50, 1e-100, 1e100}, {1e-50, 1e-100, 1e-100}}) {
+    v1::SessionConfig config = FixedKernelConfig();
+    config.mutable_noise()->set_variance(1e-30);
+    for (v1::Hyperparameters& h : *config.mutable_kernel()->mutable_fixed()) {
+      h.set_signal_variance(variance);
+      for (int l = 0; l < h.lengthscales_size(); ++l) h.set_lengthscales(l, lengthscale);
+      h.set_noise_variance(noise);
+    }
+    const std::string name =
+        Create(absl::StrCat("corner-", lengthscale > 1 ? "long" : "short", "-",
+                            variance > 1 ? "high" : "low", "-",
+                            noise > 1 ? "noisy" : "clean"),
+               config)
+            .name();
+    Add(name, {PendulumTransitions(10, 0, 3),
+               {MakeTransition({1e30, -1e30}, 3, {-1e30, 1e30}, 10)}});
+    ExpectAnswers(name);
+  }
+}
+
+// A number a hostile or broken client might send.
+double HostileNumber(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double sign = unit(rng) < 0.5 ? -1.0 : 1.0;
+  const double p = unit(rng);
+  if (p < 0.45) return 2.0 * (unit(rng) - 0.5) * 3.0;                // plausible
+  if (p < 0.60) return sign * std::pow(10.0, -30 + 60 * unit(rng));  // accepted extremes
+  if (p < 0.70) return sign * 1e30;                                  // the edge
+  if (p < 0.80) return sign * std::pow(10.0, 30 + 278 * unit(rng));  // out of range
+  if (p < 0.85) return sign * std::numeric_limits<double>::denorm_min();
+  if (p < 0.90) return 0.0;
+  if (p < 0.95) return sign * std::numeric_limits<double>::infinity();
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+TEST_F(HostileValuesTest, TenThousandRandomHostileRequestsLeaveEverySessionAnswering) {
+  std::vector<std::string> names;
+  {
+    v1::SessionConfig fitted = PendulumConfig();
+    fitted.mutable_refit()->set_every_samples(100);  // keeps the test fast
+    fitted.mutable_planner()->set_max_iterations(5);
+    fitted.set_horizon(3);
+    v1::SessionConfig next = fitted;
+    next.set_target(v1::TARGET_NEXT);
+    v1::SessionConfig fixed = FixedKernelConfig();
+    fixed.mutable_planner()->set_max_iterations(5);
+    fixed.set_horizon(3);
+    names = {Create("h-fitted", fitted).name(), Create("h-next", next).name(),
+             Create("h-fixed", fixed).name()};
+  }
+  for (const std::string& name : names) Add(name, {PendulumTransitions(20, 0, 5)});
+  std::mt19937_64 rng(2026);
+  std::uniform_int_distribution<int> pick(0, static_cast<int>(names.size()) - 1);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<int64_t> next_sequence(names.size(), 20);
+  int accepted = 0, rejected = 0, internal = 0;
+  constexpr int kRequests = 10000;
+  for (int r = 0; r < kRequests; ++r) {
+    const int s = pick(rng);
+    const std::string& name = names[static_cast<size_t>(s)];
+    const double kind = unit(rng);
+    absl::Status status;
+    if (kind < 0.6) {
+      std::vector<double> x{HostileNumber(rng), HostileNumber(rng)};
+      std::vector<double> y{HostileNumber(rng), HostileNumber(rng)};
+      status =
+          client_
+              ->AddData(name,
+                        {{MakeTransition(x, HostileNumber(rng), y, next_sequence[s]++)}})
+              .status();
+    } else if (kind < 0.98) {
+      v1::PredictRequest predict;
+      predict.set_session(name);
+      for (int i = 0; i < 3; ++i) predict.add_inputs(HostileNumber(rng));
+      status = client_->Predict(predict).status();
+    } else {
+      status =
+          client_->PlanInputs(name, {HostileNumber(rng), HostileNumber(rng)}).status();
+    }
+    if (status.ok()) {
+      ++accepted;
+    } else if (status.code() == absl::StatusCode::kInvalidArgument ||
+               (status.code() == absl::StatusCode::kResourceExhausted &&
+                absl::StrContains(status.message(), "per session"))) {
+      ++rejected;  // a refusal that names its reason: out of range, or the cap
+    } else {
+      ++internal;
+      ADD_FAILURE() << "request " << r << " on " << name << ": " << status;
+    }
+  }
+  std::cout << kRequests << " hostile requests: " << accepted << " accepted, " << rejected
+            << " refused (INVALID_ARGUMENT, or the sample cap), " << internal
+            << " other\n";
+  EXPECT_GT(accepted, kRequests / 10);
+  EXPECT_GT(rejected, kRequests / 10);
+  for (const std::string& name : names) ExpectAnswers(name);
+  StopServer();
+  StartServer();
+  for (const std::string& name : names) ExpectAnswers(name);
+}
+
+}  // namespace
+}  // namespace excite::service
