@@ -34,7 +34,7 @@ Clock::time_point ClientDeadline(const grpc::ServerContext& context) {
   return Clock::now() + left;
 }
 
-// min(ClientDeadline, now + budget): PlanInputs, and the refit of a Predict.
+// min(ClientDeadline, now + budget): of PlanInputs, and of a Predict's refit.
 Clock::time_point BudgetDeadline(const grpc::ServerContext& context, double budget_s) {
   const Clock::time_point budget_end =
       Clock::now() + std::chrono::duration_cast<Clock::duration>(
@@ -253,7 +253,7 @@ grpc::Status ExplorationService::Predict(grpc::ServerContext* context,
     absl::StatusOr<v1::PredictResponse> predicted = (*session)->Predict(
         *request,
         BudgetDeadline(*context, (*session)->config().planner().time_budget_s()),
-        [context]() { return context->IsCancelled(); });
+        ClientDeadline(*context), [context]() { return context->IsCancelled(); });
     if (!predicted.ok()) return predicted.status();
     *response = *std::move(predicted);
     return absl::OkStatus();

@@ -399,11 +399,15 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
 }
 
 absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& request,
+                                                     Clock::time_point refit_deadline,
                                                      Clock::time_point deadline,
                                                      std::function<bool()> cancelled) {
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
-  if (absl::Status s = EnsureFitted(deadline, cancelled); !s.ok()) return s;
+  if (absl::Status s = EnsureFitted(std::min(refit_deadline, deadline), cancelled);
+      !s.ok()) {
+    return s;
+  }
   const int dx = config_.state_dim();
   const int z_dim = dx + config_.input_dim();
   const Eigen::Index m = request.inputs_size() / z_dim;

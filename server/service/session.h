@@ -84,8 +84,11 @@ class Session {
   // Mean and latent (+ noise if asked) variance at each z. Inputs must have been
   // checked with ValidatePredictInputs. FAILED_PRECONDITION before
   // refit.min_samples samples; DEADLINE_EXCEEDED or CANCELLED if a due refit was
-  // stopped by `deadline` or `cancelled`.
+  // stopped by min(`refit_deadline`, `deadline`) or `cancelled`, or if
+  // `deadline` passed or `cancelled` fired between two chunks of points (each
+  // at most 2^21 / n points, which bounds the call's memory).
   absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request,
+                                              Clock::time_point refit_deadline,
                                               Clock::time_point deadline,
                                               std::function<bool()> cancelled);
 

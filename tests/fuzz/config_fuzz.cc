@@ -4,27 +4,65 @@
 // Predict and PlanInputs requests against a validated config, and of a
 // SessionArchive (ImportSession, `excite import` files). Must never crash
 // (ASan); validation must be idempotent (a validated config validates again,
-// unchanged), else the target aborts.
+// unchanged), else the target aborts. Transitions that pass validation are
+// given to the session's GP model as the server would (delta or next target,
+// prior mean, standardisation, a short fit): the model must take them, fit and
+// predict finite numbers, else the target aborts (a poisoned session).
 
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <string>
 
+#include "Eigen/Dense"
 #include "absl/status/statusor.h"
 #include "excite/v1/exploration_service.pb.h"
 #include "excite/v1/session_config.pb.h"
+#include "server/gp/dynamics_model.h"
 #include "server/service/config_text.h"
 #include "server/service/config_validation.h"
 #include "server/service/request_validation.h"
 #include "server/service/session_archive.h"
+#include "server/service/session_options.h"
 
 namespace excite::service {
 namespace {
 
+// Validated transitions through the model, as Session::AddTransitions and a
+// lazy refit would.
+void ModelTakes(const v1::SessionConfig& config,
+                const google::protobuf::RepeatedPtrField<v1::Transition>& transitions) {
+  absl::StatusOr<gp::DynamicsModel> model =
+      gp::DynamicsModel::Create(ModelOptionsFromConfig(config));
+  if (!model.ok()) std::abort();  // a validated config must make a model
+  const int dx = config.state_dim();
+  const int du = config.input_dim();
+  const Eigen::Index n = transitions.size();
+  Eigen::MatrixXd states(n, dx), inputs(n, du), next_states(n, dx);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const v1::Transition& t = transitions[static_cast<int>(i)];
+    for (int j = 0; j < dx; ++j) {
+      states(i, j) = t.state(j);
+      next_states(i, j) = t.next_state(j);
+    }
+    for (int j = 0; j < du; ++j) inputs(i, j) = t.input(j);
+  }
+  if (!model->AddSamples(states, inputs, next_states).ok()) std::abort();
+  if (n < 2) return;
+  int evaluations = 0;  // a short fit: the fuzzer wants many inputs per second
+  if (!model->Refit([&evaluations]() { return ++evaluations > 5; }).ok()) std::abort();
+  Eigen::MatrixXd z(n, dx + du);
+  z << states, inputs;
+  Eigen::MatrixXd mean, variance;
+  model->Predict(z, &mean, &variance, nullptr, nullptr);
+  if (!mean.allFinite() || !variance.allFinite()) std::abort();
+}
+
 void CheckRequests(const v1::SessionConfig& config, const std::string& bytes) {
   v1::AddDataRequest add;
-  if (add.ParseFromString(bytes)) (void)ValidateTransitions(config, add.transitions());
+  if (add.ParseFromString(bytes) && ValidateTransitions(config, add.transitions()).ok()) {
+    ModelTakes(config, add.transitions());
+  }
   v1::PredictRequest predict;
   if (predict.ParseFromString(bytes)) {
     (void)ValidatePredictInputs(config, predict.inputs(), 1000);
