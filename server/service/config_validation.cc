@@ -116,16 +116,21 @@ absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& con
                                 kernel->fixed_size(), " entries"));
   }
   const gp::FitOptions fit_defaults;
+  // Read before mutable_*() creates the field: argument evaluation order is
+  // unspecified (clang evaluates left to right, and rejected every fitted config
+  // without bounds as "lower (0) must be < upper (0)").
+  const bool has_lengthscale_bounds = kernel->has_lengthscale_bounds();
+  const bool has_signal_variance_bounds = kernel->has_signal_variance_bounds();
   if (absl::Status s = CheckFitBounds(
           Field(kpath, "lengthscale_bounds"), kernel->mutable_lengthscale_bounds(),
-          kernel->has_lengthscale_bounds(), fit_defaults.min_lengthscale,
+          has_lengthscale_bounds, fit_defaults.min_lengthscale,
           fit_defaults.max_lengthscale, kMinFitLengthscale, kMaxFitLengthscale);
       !s.ok()) {
     return s;
   }
   if (absl::Status s = CheckFitBounds(
           Field(kpath, "signal_variance_bounds"),
-          kernel->mutable_signal_variance_bounds(), kernel->has_signal_variance_bounds(),
+          kernel->mutable_signal_variance_bounds(), has_signal_variance_bounds,
           fit_defaults.min_signal_variance, fit_defaults.max_signal_variance,
           kMinFitSignalVariance, kMaxFitSignalVariance);
       !s.ok()) {
