@@ -143,24 +143,47 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
     const Eigen::Index n = static_cast<Eigen::Index>(samples.size());
     Eigen::MatrixXd states(n, dx), inputs(n, du), next_states(n, dx);
     int64_t last_sequence = -1;
+    absl::Status damaged;
     for (Eigen::Index i = 0; i < n; ++i) {
       const store::SampleRecord& s = samples[static_cast<size_t>(i)];
+      last_sequence = std::max(last_sequence, s.sequence);
       if (static_cast<int>(s.state.size()) != dx ||
           static_cast<int>(s.input.size()) != du ||
           static_cast<int>(s.next_state.size()) != dx) {
-        return absl::DataLossError(absl::StrCat("session ", record.id, ": stored sample ",
-                                                s.sequence, " has the wrong shape"));
+        if (damaged.ok()) {
+          damaged = absl::DataLossError(
+              absl::StrCat("stored sample ", s.sequence, " has the wrong shape"));
+        }
+        continue;
       }
       states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.state.data(), dx);
       inputs.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.input.data(), du);
       next_states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.next_state.data(), dx);
-      last_sequence = std::max(last_sequence, s.sequence);
     }
-    if (n > 0) {
+    if (n > 0 && damaged.ok()) {
+      // Samples stored by an older version may be ones the model cannot take
+      // (e.g. 1e308, before value_ranges.h).
       if (absl::Status s = model->AddSamples(states, inputs, next_states); !s.ok()) {
-        return absl::Status(s.code(), absl::StrCat("session ", record.id,
-                                                   ": restoring samples: ", s.message()));
+        damaged = absl::DataLossError(absl::StrCat(
+            "its stored samples cannot be used by the model: ", s.message()));
       }
+    }
+    if (!damaged.ok()) {
+      // Set aside, not fatal: the server serves every other session.
+      damaged = absl::DataLossError(absl::StrCat(
+          "session ", SessionName(record.id), " is damaged: ", damaged.message(),
+          "; its data is kept: ExportSession reads what is stored, DeleteSession "
+          "removes it"));
+      Log(LogLevel::kError, std::string(damaged.message()));
+      std::shared_ptr<Session> session(
+          new Session(record.id, std::move(config), *std::move(model), store));
+      absl::MutexLock lock(&session->mu_);
+      session->damaged_ = std::move(damaged);
+      session->sample_count_ = n;
+      session->last_sequence_ = last_sequence;
+      session->model_version_ = record.model_version + n;
+      session->PublishInfo();
+      return session;
     }
     if (options_fit_kernel) {
       // The model is rebuilt with the last saved fit while it is current, and
@@ -228,7 +251,7 @@ void Session::PublishInfo() {
 
 absl::Status Session::CheckUsable() {
   if (deleted_) return NotDeleted(name_);
-  return absl::OkStatus();
+  return damaged_;
 }
 
 absl::Status Session::CheckModelAccepts(const std::vector<store::SampleRecord>& batch) {
@@ -521,7 +544,7 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
 
 absl::StatusOr<v1::SessionArchive> Session::Export() {
   absl::MutexLock lock(&mu_);
-  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  if (deleted_) return NotDeleted(name_);  // a damaged session exports what is stored
   absl::StatusOr<store::SessionRecord> record = store_->LoadSession(id_);
   if (!record.ok()) {
     if (absl::IsNotFound(record.status())) return NotDeleted(name_);
@@ -534,7 +557,7 @@ absl::StatusOr<v1::SessionArchive> Session::Export() {
 
 absl::Status Session::Delete() {
   absl::MutexLock lock(&mu_);
-  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  if (deleted_) return NotDeleted(name_);
   absl::Status status = store_->DeleteSession(id_);
   if (!status.ok() && !absl::IsNotFound(status)) return status;
   deleted_ = true;

@@ -54,7 +54,11 @@ class Session {
   // does not change them; otherwise (kernel.fit) they seed the warm start of
   // the first refit and Describe() reports them (without a log marginal
   // likelihood) until it ran. model_version resumes at a value no lower than any
-  // served before the restart (saved version + sample count).
+  // served before the restart (saved version + sample count). Samples of the
+  // wrong shape, or ones the model cannot take (stored by an older version), do
+  // not fail the restore: the session is set aside as damaged (logged; AddData,
+  // Predict and PlanInputs answer DATA_LOSS; Describe, Export and Delete work),
+  // so one bad session never keeps the server from serving the others.
   static absl::StatusOr<std::shared_ptr<Session>> Restore(
       const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
       store::SqliteStore* store);
@@ -151,6 +155,9 @@ class Session {
   int64_t last_sequence_ ABSL_GUARDED_BY(mu_) = -1;
   int64_t model_version_ ABSL_GUARDED_BY(mu_) = 0;
   bool deleted_ ABSL_GUARDED_BY(mu_) = false;
+  // DATA_LOSS if restored from samples the model cannot use: every call but
+  // Describe, Export and Delete returns it.
+  absl::Status damaged_ ABSL_GUARDED_BY(mu_);
 
   mutable absl::Mutex info_mu_ ABSL_ACQUIRED_AFTER(mu_);
   Info info_ ABSL_GUARDED_BY(info_mu_);

@@ -13,6 +13,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "gtest/gtest.h"
+#include "server/store/sqlite_store.h"
 #include "tests/service/pendulum_data.h"
 #include "tests/service/service_fixture.h"
 
@@ -133,6 +134,43 @@ TEST_F(HostileValuesTest, ExtremeButValidHyperparametersStillAnswer) {
                {MakeTransition({1e30, -1e30}, 3, {-1e30, 1e30}, 10)}});
     ExpectAnswers(name);
   }
+}
+
+TEST_F(HostileValuesTest, ASessionAnOlderVersionPoisonedIsSetAsideNotFatal) {
+  const std::string bad = Create("poisoned").name();
+  const std::string good = Create("healthy").name();
+  Add(bad, {PendulumTransitions(10, 0, 3)});
+  Add(good, {PendulumTransitions(10, 0, 4)});
+  StopServer();
+  {
+    // What a server before value_ranges.h stored: a delta target that overflows.
+    absl::StatusOr<std::unique_ptr<store::SqliteStore>> store =
+        store::SqliteStore::Open(options_.data_dir);
+    ASSERT_TRUE(store.ok()) << store.status();
+    store::SampleRecord poison;
+    poison.sequence = 10;
+    poison.state = {1e308, 0.0};
+    poison.input = {0.0};
+    poison.next_state = {-1e308, 0.0};
+    ASSERT_TRUE((*store)->InsertSamples("poisoned", {poison}).ok());
+  }
+  StartServer();  // used to fail: "restoring samples: ... overflows"
+  ExpectAnswers(good);
+  absl::StatusOr<v1::Session> described = client_->GetSession(bad);
+  ASSERT_TRUE(described.ok()) << described.status();
+  EXPECT_EQ(described->sample_count(), 11);
+  v1::PredictRequest predict;
+  predict.set_session(bad);
+  for (double v : {0.1, -0.2, 0.3}) predict.add_inputs(v);
+  ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kDataLoss,
+               "session sessions/poisoned is damaged");
+  ExpectStatus(client_->AddData(bad, {PendulumTransitions(1, 20, 5)}).status(),
+               absl::StatusCode::kDataLoss, "ExportSession reads what is stored");
+  absl::StatusOr<v1::SessionArchive> exported = client_->ExportSession(bad);
+  ASSERT_TRUE(exported.ok()) << exported.status();
+  EXPECT_EQ(exported->samples_size(), 11);
+  EXPECT_TRUE(client_->DeleteSession(bad).ok());
+  EXPECT_EQ(client_->GetSession(bad).status().code(), absl::StatusCode::kNotFound);
 }
 
 // A number a hostile or broken client might send.
