@@ -145,7 +145,7 @@ TEST_F(MetricsTest, RefitStopsAtTheClientDeadlineAndResumes) {
   absl::StatusOr<v1::Session> session =
       PendulumSession("slow",
                       "noise { variance: 1e-4 fit: true } kernel { fit: true restarts: 7 "
-                      "max_iterations: 40 }",
+                      "max_iterations: 40 } planner { time_budget_s: 600 }",
                       400);
   ASSERT_TRUE(session.ok()) << session.status();
   const v1::PredictRequest predict = PredictOnePoint(session->name());
@@ -166,7 +166,8 @@ TEST_F(MetricsTest, RefitStopsAtTheClientDeadlineAndResumes) {
   EXPECT_THAT(reply, HasSubstr("excite_fits_stopped_total 1\n"));
   EXPECT_THAT(reply, HasSubstr("excite_fit_seconds_count 1\n"));
 
-  // The rest of the fit, with time to spare (sanitizer builds are slow).
+  // The rest of the fit, with time to spare (sanitizer builds are slow; the
+  // session's time budget, which also bounds a Predict's refit, is 600 s).
   client::ClientOptions patient;
   patient.default_deadline = std::chrono::seconds(180);
   absl::StatusOr<v1::PredictResponse> predicted =
