@@ -8,6 +8,7 @@ PACKAGES=(
   build-essential cmake pkg-config git
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libeigen3-dev coinor-libipopt-dev libabsl-dev liblbfgspp-dev libsqlite3-dev
+  prometheus-cpp-dev  # the metrics endpoint (prometheus-cpp's exposer, on civetweb)
   libmujoco-dev  # found by path: its CMake package would demand OpenGL and qhull
   libgtest-dev libgmock-dev libbenchmark-dev
   liblapack-dev libblas-dev  # ipopt.pc links -llapack -lblas (only recommended)

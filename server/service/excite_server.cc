@@ -109,10 +109,10 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
           } while (!token.empty());
           return total;
         });
-    absl::StatusOr<std::unique_ptr<MetricsHttpServer>> http =
-        MetricsHttpServer::Start(options.metrics_listen, server->metrics_.get());
-    if (!http.ok()) return http.status();
-    server->metrics_http_ = *std::move(http);
+    absl::StatusOr<std::unique_ptr<MetricsEndpoint>> endpoint =
+        MetricsEndpoint::Start(options.metrics_listen, server->metrics_.get());
+    if (!endpoint.ok()) return endpoint.status();
+    server->metrics_endpoint_ = *std::move(endpoint);
     std::string metrics_host;
     int metrics_port = 0;
     if (SplitHostPort(options.metrics_listen, &metrics_host, &metrics_port).ok() &&
@@ -139,7 +139,7 @@ ExciteServer::~ExciteServer() {
 }
 
 int ExciteServer::metrics_port() const {
-  return metrics_http_ != nullptr ? metrics_http_->port() : 0;
+  return metrics_endpoint_ != nullptr ? metrics_endpoint_->port() : 0;
 }
 
 std::string ExciteServer::address() const {

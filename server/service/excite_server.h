@@ -74,7 +74,7 @@ class ExciteServer {
   absl::Mutex shutdown_mu_;
   bool shut_down_ ABSL_GUARDED_BY(shutdown_mu_) = false;
   // Last: stops first (its gauges read registry_).
-  std::unique_ptr<MetricsHttpServer> metrics_http_;
+  std::unique_ptr<MetricsEndpoint> metrics_endpoint_;
 };
 
 // Splits "host:port" / "[v6]:port". INVALID_ARGUMENT if malformed.

@@ -1,24 +1,24 @@
 #ifndef EXCITE_SERVER_SERVICE_METRICS_H_
 #define EXCITE_SERVER_SERVICE_METRICS_H_
 
-#include <atomic>
 #include <functional>
-#include <map>
 #include <memory>
 #include <string>
-#include <thread>
-#include <utility>
-#include <vector>
 
-#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
-#include "absl/synchronization/mutex.h"
 #include "grpcpp/support/server_interceptor.h"
+#include "prometheus/counter.h"
+#include "prometheus/exposer.h"
+#include "prometheus/family.h"
+#include "prometheus/histogram.h"
+#include "prometheus/registry.h"
 
 namespace excite::service {
 
-// Process metrics in the Prometheus text exposition format (version 0.0.4):
+class CallbackGauges;
+
+// Process metrics, kept in a prometheus-cpp registry:
 //   excite_rpc_total{method,code}                 counter
 //   excite_rpc_latency_seconds{method,code}       histogram
 //   excite_samples_stored_total                   counter (AddData's `stored`)
@@ -28,11 +28,13 @@ namespace excite::service {
 //   excite_fits_stopped_total                     counter (refits ended early by a
 //                                                 deadline or cancellation)
 //   excite_store_write_seconds{op}                histogram (durable store writes)
-//   gauges registered with AddGauge (sessions, samples).
+//   gauges registered with AddGauge, read at every scrape (sessions, samples,
+//   memory).
 // Thread-safe.
 class Metrics {
  public:
-  Metrics() = default;
+  Metrics();
+  ~Metrics();
   Metrics(const Metrics&) = delete;
   Metrics& operator=(const Metrics&) = delete;
 
@@ -46,35 +48,26 @@ class Metrics {
   void RecordFit(double seconds, bool stopped);
   // One durable store write; `op` names it ("insert_samples", "save_model").
   void RecordStoreWrite(absl::string_view op, double seconds);
-  // A gauge read at every scrape; `read` must stay callable while this lives.
-  void AddGauge(std::string name, std::string help, std::function<double()> read);
+  // A gauge read at every scrape; `read` must stay callable while this lives
+  // and must not call back into this object.
+  void AddGauge(const std::string& name, const std::string& help,
+                std::function<double()> read);
 
+  // Everything in the Prometheus text exposition format (version 0.0.4).
   std::string Render() const;
+  // Serves these metrics on `exposer`'s /metrics; this must outlive it.
+  void ExposeOn(prometheus::Exposer* exposer);
 
  private:
-  struct Histogram {
-    std::vector<int64_t> buckets;  // cumulative at render time, per bound here
-    int64_t count = 0;
-    double sum = 0;
-  };
-  struct Gauge {
-    std::string name;
-    std::string help;
-    std::function<double()> read;
-  };
-
-  // Everything but the gauges.
-  void RenderRecorded(std::string* out) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-
-  mutable absl::Mutex mu_;
-  // (method, code) -> latency histogram (its count is the RPC count).
-  std::map<std::pair<std::string, std::string>, Histogram> rpcs_ ABSL_GUARDED_BY(mu_);
-  std::vector<Gauge> gauges_ ABSL_GUARDED_BY(mu_);
-  Histogram plan_ ABSL_GUARDED_BY(mu_);
-  Histogram fit_ ABSL_GUARDED_BY(mu_);
-  int64_t fits_stopped_ ABSL_GUARDED_BY(mu_) = 0;
-  std::map<std::string, Histogram> store_writes_ ABSL_GUARDED_BY(mu_);
-  std::atomic<int64_t> samples_stored_{0};
+  std::shared_ptr<prometheus::Registry> registry_;
+  std::shared_ptr<CallbackGauges> gauges_;
+  prometheus::Family<prometheus::Counter>& rpc_total_;
+  prometheus::Family<prometheus::Histogram>& rpc_latency_;
+  prometheus::Family<prometheus::Histogram>& store_writes_;
+  prometheus::Counter& samples_stored_;
+  prometheus::Histogram& plan_;
+  prometheus::Histogram& fit_;
+  prometheus::Counter& fits_stopped_;
 };
 
 // Records every RPC of the server (method, status code, latency, samples stored
@@ -83,29 +76,23 @@ class Metrics {
 std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>
 MakeMetricsInterceptorFactory(Metrics* metrics);
 
-// A tiny single-threaded HTTP/1.0 responder: GET /metrics answers
-// metrics->Render(), anything else 404. One connection at a time, 2 s I/O
-// timeouts. Stops (and joins its thread) on destruction.
-class MetricsHttpServer {
+// The HTTP endpoint: prometheus-cpp's exposer (civetweb, a pool of worker threads),
+// GET /metrics, anything else 404. A slow or silent client holds one worker, not
+// the others, and never delays destruction by more than civetweb's 2 s poll
+// quantum.
+class MetricsEndpoint {
  public:
   // `listen` is HOST:PORT (port 0: any free port); IPv4 hosts or "localhost".
-  static absl::StatusOr<std::unique_ptr<MetricsHttpServer>> Start(
-      const std::string& listen, const Metrics* metrics);
-  ~MetricsHttpServer();
-  MetricsHttpServer(const MetricsHttpServer&) = delete;
-  MetricsHttpServer& operator=(const MetricsHttpServer&) = delete;
-
+  // `metrics` must outlive the endpoint. UNAVAILABLE if it cannot listen.
+  static absl::StatusOr<std::unique_ptr<MetricsEndpoint>> Start(const std::string& listen,
+                                                                Metrics* metrics);
   int port() const { return port_; }
 
  private:
-  MetricsHttpServer() = default;
-  void Serve();
+  MetricsEndpoint() = default;
 
-  const Metrics* metrics_ = nullptr;
-  int fd_ = -1;
+  std::unique_ptr<prometheus::Exposer> exposer_;
   int port_ = 0;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
 };
 
 }  // namespace excite::service
