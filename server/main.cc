@@ -4,6 +4,7 @@
 // it accepts RPCs (other processes parse it to find the port). SIGTERM/SIGINT:
 // health NOT_SERVING, graceful shutdown (5 s grace), exit 0.
 
+#include <malloc.h>
 #include <pthread.h>
 #include <signal.h>
 
@@ -44,6 +45,10 @@ ABSL_FLAG(std::string, auth_token_file, "",
 ABSL_FLAG(int64_t, max_samples_per_session, 20000, "Cap on the samples of one session.");
 ABSL_FLAG(int64_t, max_predict_points, 100000, "Cap on the points of one Predict call.");
 ABSL_FLAG(int32_t, max_horizon, 200, "Cap on a new session's horizon (at most 200).");
+ABSL_FLAG(int64_t, memory_budget_mb, 0,
+          "Memory the sessions' models may take in all (estimated peak, MiB); requests "
+          "beyond it get RESOURCE_EXHAUSTED. 0: three quarters of the cgroup's memory "
+          "limit or, without one, of the machine's memory.");
 
 namespace {
 
@@ -64,6 +69,16 @@ int Run(int argc, char** argv) {
   }
   excite::service::SetLogLevel(*level);
 
+  // Blocks of 1 MiB and more (kernel matrices from n ~ 360) are mapped and given
+  // back to the system when freed. glibc's default threshold rises to 32 MiB after
+  // the first such free, after which each thread's arena keeps its own high-water
+  // mark of freed matrices: the process then holds more than its live memory (at
+  // state_dim 8, n = 1000: 261 MiB against 220 estimated; with this, 222), and
+  // keeps it after the session is deleted. Cost: fresh pages for each matrix,
+  // 15-20 % of a refit's time at n = 1000-2000 (bench/load/session_memory.py),
+  // until the fit reuses its buffers.
+  mallopt(M_MMAP_THRESHOLD, 1 << 20);
+
   // Block the signals in every thread (gRPC's threads inherit the mask); one
   // thread receives them with sigwait, so no work happens in a signal handler.
   sigset_t signals;
@@ -81,6 +96,8 @@ int Run(int argc, char** argv) {
   options.limits.max_predict_points = absl::GetFlag(FLAGS_max_predict_points);
   options.limits.max_horizon = absl::GetFlag(FLAGS_max_horizon);
   options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
+  options.memory_budget_bytes =
+      absl::GetFlag(FLAGS_memory_budget_mb) * (int64_t{1} << 20);
   options.security.tls_cert_file = absl::GetFlag(FLAGS_tls_cert);
   options.security.tls_key_file = absl::GetFlag(FLAGS_tls_key);
   options.security.tls_client_ca_file = absl::GetFlag(FLAGS_tls_client_ca);

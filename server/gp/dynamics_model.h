@@ -121,6 +121,15 @@ class DynamicsModel final : public DynamicsPredictor {
   // True once Refit() succeeded: Predict() is valid.
   bool fitted() const;
 
+  // Upper estimate, in bytes, of the memory of a model of these dimensions with
+  // `samples` samples at its peak: what it keeps (per output the Cholesky factor
+  // with its growth room, the kernel matrix cached by the last factorisation, the
+  // data) plus what a Refit() allocates while it runs on `fit_threads` threads
+  // (four n x n matrices per output being fitted). For memory budgets; compared
+  // with a real server's peak resident memory in bench/load/session_memory.py.
+  static int64_t PeakBytes(int64_t samples, int state_dim, int input_dim,
+                           int fit_threads);
+
   // See DynamicsPredictor. Requires fitted() and z.cols() == z_dim() (a
   // precondition, not checked by status: if violated, outputs are resized and
   // filled with NaN). Costs O(m n^2) per output

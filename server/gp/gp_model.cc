@@ -173,7 +173,10 @@ absl::Status GpModel::AddSample(const Eigen::VectorXd& x, double y) {
     return Factorise();
   }
   if (l_.rows() < n + 1) {
-    const Eigen::Index capacity = std::max<Eigen::Index>(16, 2 * (n + 1));
+    // The room Factorise() leaves (25 %): growth stays amortised O(n) per sample
+    // and the factor at most (1.25 n + 8)^2 doubles, which memory budgets count
+    // on (DynamicsModel::PeakBytes).
+    const Eigen::Index capacity = std::max<Eigen::Index>(16, n + 1 + (n + 1) / 4 + 8);
     Eigen::MatrixXd grown(capacity, capacity);
     grown.topLeftCorner(n, n).triangularView<Eigen::Lower>() =
         l_.topLeftCorner(n, n).triangularView<Eigen::Lower>();

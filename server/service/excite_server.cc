@@ -49,8 +49,17 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
   if (!store.ok()) return store.status();
   server->store_ = *std::move(store);
   if (!options.metrics_listen.empty()) server->metrics_ = std::make_unique<Metrics>();
-  absl::StatusOr<std::unique_ptr<SessionRegistry>> registry = SessionRegistry::Load(
-      server->store_.get(), options.limits.max_sessions, server->metrics_.get());
+  if (options.memory_budget_bytes < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("memory budget must be >= 0 (0: the default), got ",
+                     options.memory_budget_bytes));
+  }
+  server->budget_ = std::make_unique<MemoryBudget>(options.memory_budget_bytes > 0
+                                                       ? options.memory_budget_bytes
+                                                       : DefaultMemoryBudgetBytes());
+  absl::StatusOr<std::unique_ptr<SessionRegistry>> registry =
+      SessionRegistry::Load(server->store_.get(), options.limits.max_sessions,
+                            server->metrics_.get(), server->budget_.get());
   if (!registry.ok()) return registry.status();
   server->registry_ = *std::move(registry);
   ServiceLimits limits = options.limits;
@@ -109,6 +118,14 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
           } while (!token.empty());
           return total;
         });
+    MemoryBudget* budget = server->budget_.get();
+    server->metrics_->AddGauge(
+        "excite_memory_estimate_bytes",
+        "Estimated peak memory of all sessions' models, as the memory budget counts it.",
+        [budget]() { return static_cast<double>(budget->used()); });
+    server->metrics_->AddGauge(
+        "excite_memory_budget_bytes", "The memory budget.",
+        [budget]() { return static_cast<double>(budget->limit()); });
     absl::StatusOr<std::unique_ptr<MetricsEndpoint>> endpoint =
         MetricsEndpoint::Start(options.metrics_listen, server->metrics_.get());
     if (!endpoint.ok()) return endpoint.status();
@@ -128,8 +145,16 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
           server->server_->GetHealthCheckService()) {
     health->SetServingStatus(true);
   }
-  Log(LogLevel::kInfo, absl::StrCat("serving ", server->registry_->size(),
-                                    " sessions from ", server->store_->path()));
+  Log(LogLevel::kInfo,
+      absl::StrCat("serving ", server->registry_->size(), " sessions from ",
+                   server->store_->path(), "; memory budget ",
+                   FormatBytes(server->budget_->limit()), ", ",
+                   FormatBytes(server->budget_->used()), " in use"));
+  if (server->budget_->used() > server->budget_->limit()) {
+    Log(LogLevel::kWarning,
+        "the stored sessions exceed the memory budget: they are served, but none may "
+        "grow until enough is deleted (or --memory_budget_mb is raised)");
+  }
   return server;
 }
 

@@ -9,6 +9,7 @@
 #include "grpcpp/server.h"
 #include "server/service/auth.h"
 #include "server/service/exploration_service.h"
+#include "server/service/memory_budget.h"
 #include "server/service/metrics.h"
 #include "server/service/session_registry.h"
 #include "server/store/sqlite_store.h"
@@ -29,6 +30,8 @@ struct ServerOptions {
   // HOST:PORT of the Prometheus endpoint (GET /metrics, plain HTTP, no token);
   // empty: no metrics. Port 0 picks a free one (metrics_port()).
   std::string metrics_listen;
+  // The memory budget (see MemoryBudget) in bytes; 0: DefaultMemoryBudgetBytes().
+  int64_t memory_budget_bytes = 0;
 };
 
 // The whole server: store, session registry, ExplorationService, grpc.health.v1
@@ -67,6 +70,7 @@ class ExciteServer {
   std::string host_;
   int port_ = 0;
   std::unique_ptr<store::SqliteStore> store_;
+  std::unique_ptr<MemoryBudget> budget_;  // outlives registry_ (its sessions)
   std::unique_ptr<SessionRegistry> registry_;
   std::unique_ptr<ExplorationService> service_;
   std::unique_ptr<Metrics> metrics_;  // outlives server_ (its interceptors)

@@ -22,6 +22,11 @@ using RowMajorMatrix =
 // 2^21 doubles, 16 MiB.
 constexpr Eigen::Index kPredictChunkEntries = Eigen::Index{1} << 21;
 
+// What a session holds besides its model (config, planner, strategy state,
+// summary): an empty one takes 3.1 KiB (bench/load/session_memory.py); planning
+// adds its workspace, which grows with the horizon.
+constexpr int64_t kSessionBytes = int64_t{32} << 10;
+
 v1::SolverStatus ToProto(plan::PlanStatus status) {
   switch (status) {
     case plan::PlanStatus::kConverged:
@@ -292,12 +297,27 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
           " more would exceed the cap of ", max_samples, " per session"));
     }
     if (absl::Status s = CheckModelAccepts(batch); !s.ok()) return s;
+    const int64_t after = sample_count_ + static_cast<int64_t>(batch.size());
+    if (budget_ != nullptr) {
+      // Taken before storing (nothing is stored if it does not fit), settled to
+      // what was actually stored below.
+      const int64_t needed = EstimatedBytes(after);
+      if (absl::Status s =
+              budget_->Reserve(needed - reserved_bytes_,
+                               absl::StrCat("session ", name_, " with ", after,
+                                            " samples (", batch.size(), " more)"));
+          !s.ok()) {
+        return s;
+      }
+      reserved_bytes_ = needed;
+    }
     const Clock::time_point write_start = Clock::now();
     absl::StatusOr<store::InsertResult> inserted = store_->InsertSamples(id_, batch);
     if (metrics_ != nullptr && inserted.ok()) {
       metrics_->RecordStoreWrite("insert_samples", SecondsSince(write_start));
     }
     if (!inserted.ok()) {
+      SettleBudget();
       if (absl::IsNotFound(inserted.status())) return NotDeleted(name_);
       return absl::Status(inserted.status().code(),
                           absl::StrCat("storing the samples of session ", name_, ": ",
@@ -326,6 +346,7 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
       // session agrees with the store (and with itself after a restart).
       sample_count_ += n;
       ++model_version_;
+      SettleBudget();
       if (!added.ok()) {
         PublishInfo();
         return absl::InternalError(absl::StrCat("session ", name_, ": ", n,
@@ -336,6 +357,7 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
     }
     response.set_stored(inserted->stored_count);
     response.set_duplicates(inserted->duplicate_count);
+    SettleBudget();  // all duplicates: nothing added
   }
   response.set_sample_count(sample_count_);
   response.set_model_version(model_version_);
@@ -561,7 +583,28 @@ absl::Status Session::Delete() {
   absl::Status status = store_->DeleteSession(id_);
   if (!status.ok() && !absl::IsNotFound(status)) return status;
   deleted_ = true;
+  if (budget_ != nullptr) budget_->Release(reserved_bytes_);
+  reserved_bytes_ = 0;
   return absl::OkStatus();
+}
+
+void Session::AttachMemoryBudget(MemoryBudget* budget, int64_t reserved) {
+  absl::MutexLock lock(&mu_);
+  budget_ = budget;
+  reserved_bytes_ = reserved;
+}
+
+int64_t Session::EstimatedBytes(int64_t samples) const {
+  return kSessionBytes +
+         gp::DynamicsModel::PeakBytes(samples, config_.state_dim(), config_.input_dim(),
+                                      ModelOptionsFromConfig(config_).fit_threads);
+}
+
+void Session::SettleBudget() {
+  if (budget_ == nullptr) return;
+  const int64_t held = EstimatedBytes(sample_count_);
+  budget_->Release(reserved_bytes_ - held);
+  reserved_bytes_ = held;
 }
 
 }  // namespace excite::service

@@ -17,6 +17,7 @@
 #include "excite/v1/session_config.pb.h"
 #include "server/gp/dynamics_model.h"
 #include "server/plan/planner.h"
+#include "server/service/memory_budget.h"
 #include "server/service/metrics.h"
 #include "server/store/sqlite_store.h"
 #include "server/store/store_records.h"
@@ -72,6 +73,15 @@ class Session {
   // before the session is shared; `metrics` must outlive it.
   void AttachMetrics(Metrics* metrics) { metrics_ = metrics; }
 
+  // Counts this session's estimated memory in `budget` from now on (nullptr: no
+  // budget); the caller has already taken `reserved` bytes of it. AddTransitions
+  // then takes what more samples need before storing them, Delete gives it all
+  // back. Call before the session is shared; `budget` must outlive it.
+  void AttachMemoryBudget(MemoryBudget* budget, int64_t reserved);
+  // The estimated peak memory of this session holding `samples` samples: the
+  // model's (gp::DynamicsModel::PeakBytes) plus the session's own.
+  int64_t EstimatedBytes(int64_t samples) const;
+
   // name, config, sample_count, last_sequence, model_version and (when fitted,
   // or restored with saved hyperparameters) outputs.
   v1::Session Describe() const;
@@ -80,7 +90,8 @@ class Session {
   // model can take it (INVALID_ARGUMENT, nothing stored, if not), stores it
   // durably (one transaction), then adds the newly stored transitions to the GP. The
   // response counts this message only. NOT_FOUND if the session was deleted,
-  // RESOURCE_EXHAUSTED if the session would exceed `max_samples`.
+  // RESOURCE_EXHAUSTED (nothing stored) if the session would exceed `max_samples`
+  // or the memory budget.
   absl::StatusOr<v1::AddDataResponse> AddTransitions(
       const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
       int64_t max_samples);
@@ -141,12 +152,15 @@ class Session {
                             const std::function<bool()>& cancelled)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   void PublishInfo() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Gives back what AddTransitions reserved beyond EstimatedBytes(sample_count_).
+  void SettleBudget() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   const std::string id_;
   const std::string name_;
   const v1::SessionConfig config_;
   store::SqliteStore* const store_;
   Metrics* metrics_ = nullptr;
+  MemoryBudget* budget_ = nullptr;
 
   absl::Mutex mu_;
   gp::DynamicsModel model_ ABSL_GUARDED_BY(mu_);
@@ -155,6 +169,8 @@ class Session {
   int64_t last_sequence_ ABSL_GUARDED_BY(mu_) = -1;
   int64_t model_version_ ABSL_GUARDED_BY(mu_) = 0;
   bool deleted_ ABSL_GUARDED_BY(mu_) = false;
+  // Bytes of budget_ this session holds: EstimatedBytes(sample_count_).
+  int64_t reserved_bytes_ ABSL_GUARDED_BY(mu_) = 0;
   // DATA_LOSS if restored from samples the model cannot use: every call but
   // Describe, Export and Delete returns it.
   absl::Status damaged_ ABSL_GUARDED_BY(mu_);

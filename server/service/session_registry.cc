@@ -37,13 +37,14 @@ absl::StatusOr<std::string> DecodeToken(const std::string& token) {
 }  // namespace
 
 SessionRegistry::SessionRegistry(store::SqliteStore* store, int64_t max_sessions,
-                                 Metrics* metrics)
-    : store_(store), max_sessions_(max_sessions), metrics_(metrics) {}
+                                 Metrics* metrics, MemoryBudget* budget)
+    : store_(store), max_sessions_(max_sessions), metrics_(metrics), budget_(budget) {}
 
 absl::StatusOr<std::unique_ptr<SessionRegistry>> SessionRegistry::Load(
-    store::SqliteStore* store, int64_t max_sessions, Metrics* metrics) {
+    store::SqliteStore* store, int64_t max_sessions, Metrics* metrics,
+    MemoryBudget* budget) {
   std::unique_ptr<SessionRegistry> registry(
-      new SessionRegistry(store, max_sessions, metrics));
+      new SessionRegistry(store, max_sessions, metrics, budget));
   absl::StatusOr<std::vector<store::SessionRecord>> records = store->LoadSessions();
   if (!records.ok()) return records.status();
   absl::MutexLock lock(&registry->mu_);
@@ -57,6 +58,13 @@ absl::StatusOr<std::unique_ptr<SessionRegistry>> SessionRegistry::Load(
     Log(LogLevel::kInfo, absl::StrCat("loaded ", (*session)->name(), " with ",
                                       samples->size(), " samples"));
     (*session)->AttachMetrics(metrics);
+    if (budget != nullptr) {
+      // Stored already: counted even beyond the budget, which then refuses growth.
+      const int64_t bytes =
+          (*session)->EstimatedBytes(static_cast<int64_t>(samples->size()));
+      budget->ForceReserve(bytes);
+      (*session)->AttachMemoryBudget(budget, bytes);
+    }
     registry->sessions_.emplace(record.id, *std::move(session));
   }
   return registry;
@@ -87,12 +95,21 @@ absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Create(
   absl::StatusOr<std::shared_ptr<Session>> session =
       Session::Create(*id, *validated, store_);
   if (!session.ok()) return session.status();
+  const int64_t bytes = (*session)->EstimatedBytes(0);
+  if (absl::Status s = Reserve(bytes, absl::StrCat("a new session ", SessionName(*id)));
+      !s.ok()) {
+    return s;
+  }
   store::SessionRecord record;
   record.id = *id;
   record.config = validated->SerializeAsString();
   record.created_unix_ms = absl::ToUnixMillis(absl::Now());
-  if (absl::Status s = store_->CreateSession(record); !s.ok()) return s;
+  if (absl::Status s = store_->CreateSession(record); !s.ok()) {
+    if (budget_ != nullptr) budget_->Release(bytes);
+    return s;
+  }
   (*session)->AttachMetrics(metrics_);
+  (*session)->AttachMemoryBudget(budget_, bytes);
   sessions_.emplace(*id, *session);
   return session;
 }
@@ -123,10 +140,24 @@ absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Import(
   absl::StatusOr<std::shared_ptr<Session>> session =
       Session::Restore(record, samples, store_);
   if (!session.ok()) return session.status();
-  if (absl::Status s = store_->ImportSession(record, samples); !s.ok()) return s;
+  const int64_t bytes = (*session)->EstimatedBytes(static_cast<int64_t>(samples.size()));
+  if (absl::Status s = Reserve(bytes, absl::StrCat("importing ", SessionName(*id),
+                                                   " with ", samples.size(), " samples"));
+      !s.ok()) {
+    return s;
+  }
+  if (absl::Status s = store_->ImportSession(record, samples); !s.ok()) {
+    if (budget_ != nullptr) budget_->Release(bytes);
+    return s;
+  }
   (*session)->AttachMetrics(metrics_);
+  (*session)->AttachMemoryBudget(budget_, bytes);
   sessions_.emplace(*id, *session);
   return session;
+}
+
+absl::Status SessionRegistry::Reserve(int64_t bytes, absl::string_view what) {
+  return budget_ != nullptr ? budget_->Reserve(bytes, what) : absl::OkStatus();
 }
 
 absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Get(

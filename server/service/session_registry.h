@@ -11,8 +11,10 @@
 #include "absl/random/random.h"
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "absl/synchronization/mutex.h"
 #include "excite/v1/session_config.pb.h"
+#include "server/service/memory_budget.h"
 #include "server/service/session.h"
 #include "server/store/sqlite_store.h"
 
@@ -24,14 +26,17 @@ namespace excite::service {
 class SessionRegistry {
  public:
   // Loads every stored session and its samples (GPs are rebuilt from the data and
-  // fitted lazily at first use). `store` and `metrics` (nullable: no timings
-  // recorded) must outlive the registry.
+  // fitted lazily at first use). `store`, `metrics` (nullable: no timings
+  // recorded) and `budget` (nullable: no memory budget) must outlive the
+  // registry. Restored sessions count in the budget even beyond it.
   static absl::StatusOr<std::unique_ptr<SessionRegistry>> Load(
-      store::SqliteStore* store, int64_t max_sessions, Metrics* metrics = nullptr);
+      store::SqliteStore* store, int64_t max_sessions, Metrics* metrics = nullptr,
+      MemoryBudget* budget = nullptr);
 
   // Creates and stores a session. `session_id` empty: a fresh id is generated.
   // INVALID_ARGUMENT for a malformed id or config (field path under "config"),
-  // ALREADY_EXISTS for a taken id, RESOURCE_EXHAUSTED beyond max_sessions.
+  // ALREADY_EXISTS for a taken id, RESOURCE_EXHAUSTED beyond max_sessions or the
+  // memory budget.
   absl::StatusOr<std::shared_ptr<Session>> Create(const std::string& session_id,
                                                   const v1::SessionConfig& config);
 
@@ -39,8 +44,8 @@ class SessionRegistry {
   // (`record` as from a validated SessionArchive; its id and model_version are
   // set here) in one store transaction. `session_id` empty: a fresh id. The
   // session is built as after a restart (Session::Restore). ALREADY_EXISTS for a
-  // taken id, RESOURCE_EXHAUSTED beyond max_sessions; on any error nothing is
-  // stored or registered.
+  // taken id, RESOURCE_EXHAUSTED beyond max_sessions or the memory budget; on
+  // any error nothing is stored or registered.
   absl::StatusOr<std::shared_ptr<Session>> Import(
       const std::string& session_id, store::SessionRecord record,
       const std::vector<store::SampleRecord>& samples);
@@ -63,7 +68,10 @@ class SessionRegistry {
   int64_t size() const;
 
  private:
-  SessionRegistry(store::SqliteStore* store, int64_t max_sessions, Metrics* metrics);
+  SessionRegistry(store::SqliteStore* store, int64_t max_sessions, Metrics* metrics,
+                  MemoryBudget* budget);
+  // budget_->Reserve, or OK without a budget.
+  absl::Status Reserve(int64_t bytes, absl::string_view what);
   std::string GenerateId() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // `session_id`, or a generated one if empty, if it is free and the cap allows
   // one more session (ALREADY_EXISTS, RESOURCE_EXHAUSTED otherwise).
@@ -73,6 +81,7 @@ class SessionRegistry {
   store::SqliteStore* const store_;
   const int64_t max_sessions_;
   Metrics* const metrics_;
+  MemoryBudget* const budget_;
   mutable absl::Mutex mu_;
   std::map<std::string, std::shared_ptr<Session>> sessions_ ABSL_GUARDED_BY(mu_);
   absl::BitGen bitgen_ ABSL_GUARDED_BY(mu_);

@@ -158,6 +158,12 @@ def test_statefulset():
     env = {e["name"]: e["value"] for e in container["env"]}
     assert {n[len("FLAGS_"):] for n in env} <= image_env_flags()
     assert env["FLAGS_data_dir"] == DATA_DIR and env["FLAGS_listen"].endswith(f":{PORT}")
+    # The memory budget is three quarters of the container's memory limit (the
+    # server's own default from the cgroup, spelled out): the rest is the process.
+    limit = container["resources"]["limits"]["memory"]
+    assert limit.endswith("Gi") or limit.endswith("Mi"), limit
+    limit_mib = int(limit[:-2]) * (1024 if limit.endswith("Gi") else 1)
+    assert int(env["FLAGS_memory_budget_mb"]) == limit_mib * 3 // 4
     mounts = {m["mountPath"]: m["name"] for m in container["volumeMounts"]}
     (claim,) = spec["volumeClaimTemplates"]
     assert mounts[DATA_DIR] == claim["metadata"]["name"]

@@ -158,6 +158,9 @@ TEST_F(MetricsTest, CountsRpcsSessionsAndSamples) {
   EXPECT_THAT(reply, HasSubstr("excite_samples_stored_total 7\n"));
   EXPECT_THAT(reply, HasSubstr("excite_samples 7\n"));
   EXPECT_THAT(reply, HasSubstr("excite_sessions 1\n"));
+  EXPECT_THAT(reply, HasSubstr("# TYPE excite_memory_estimate_bytes gauge\n"));
+  EXPECT_THAT(reply, HasSubstr("# TYPE excite_memory_budget_bytes gauge\n"));
+  EXPECT_THAT(reply, Not(HasSubstr("excite_memory_estimate_bytes 0\n")));
   EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_count 1\n"));
   EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_bucket{le=\"+Inf\"} 1\n"));
   EXPECT_THAT(reply, HasSubstr("excite_fit_seconds_count 1\n"));

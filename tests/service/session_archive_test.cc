@@ -365,6 +365,9 @@ TEST_F(SessionArchiveTest, CapsAreResourceExhausted) {
   StopServer();
   options_.limits.max_sessions = 10;
   options_.limits.max_samples_per_session = 20000;
+  // The session is never fitted here, so it only keeps its samples; fitted, it
+  // would take an estimated 39 GiB, more than the default budget allows.
+  options_.memory_budget_bytes = int64_t{1} << 40;
   StartServer();
   const std::string name = Create("big").name();
   for (int start = 0; start < 20000; start += 4000) {
