@@ -187,6 +187,51 @@ absl::StatusOr<v1::AddDataResponse> ExciteClient::AddData(
   return response;
 }
 
+std::unique_ptr<DataStream> ExciteClient::OpenDataStream(
+    const std::string& session, std::chrono::milliseconds deadline) {
+  std::unique_ptr<DataStream> stream(new DataStream());
+  stream->session_ = session;
+  Prepare(&stream->context_, deadline);
+  stream->stream_ = stub_->StreamData(&stream->context_);
+  return stream;
+}
+
+DataStream::~DataStream() {
+  if (!done_) {
+    context_.TryCancel();
+    stream_->Finish().ok();  // ends the call; the status no longer matters
+  }
+}
+
+absl::StatusOr<v1::AddDataAck> DataStream::Send(
+    const std::vector<v1::Transition>& batch) {
+  if (done_) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "the stream has ended (", finished_.ToString(), "): open a new one"));
+  }
+  v1::AddDataRequest request;
+  request.set_session(session_);
+  request.mutable_transitions()->Reserve(static_cast<int>(batch.size()));
+  for (const v1::Transition& t : batch) *request.add_transitions() = t;
+  v1::AddDataAck ack;
+  if (stream_->Write(request) && stream_->Read(&ack)) return ack;
+  // The server ended the stream (an error) or it broke: Finish() says which.
+  done_ = true;
+  finished_ = FromGrpc(stream_->Finish());
+  if (finished_.ok()) {
+    finished_ = absl::UnavailableError("the server ended the stream without an answer");
+  }
+  return finished_;
+}
+
+absl::Status DataStream::Close() {
+  if (done_) return finished_;
+  done_ = true;
+  stream_->WritesDone();
+  finished_ = FromGrpc(stream_->Finish());
+  return finished_;
+}
+
 absl::StatusOr<v1::PredictResponse> ExciteClient::Predict(
     const v1::PredictRequest& request) {
   grpc::ClientContext context;

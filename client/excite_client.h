@@ -41,6 +41,33 @@ absl::StatusOr<std::string> LoadAuthToken(const std::string& token_file);
 std::shared_ptr<grpc::Channel> CreateChannel(const std::string& target,
                                              const ClientOptions& options);
 
+// One StreamData stream to a session: each Send() writes one message and waits
+// for its acknowledgement, so a caller always knows what is stored: every batch
+// whose Send() returned OK. Not thread-safe. Once a Send() fails the stream is
+// over: its status says why (the server's error, or UNAVAILABLE / CANCELLED /
+// DEADLINE_EXCEEDED for a broken stream), and the unacknowledged batch may or
+// may not be stored: resend it on a new stream (sequence numbers make that safe).
+class DataStream {
+ public:
+  ~DataStream();
+  DataStream(const DataStream&) = delete;
+  DataStream& operator=(const DataStream&) = delete;
+
+  absl::StatusOr<v1::AddDataAck> Send(const std::vector<v1::Transition>& batch);
+  // Closes the stream; OK if the server ended it cleanly.
+  absl::Status Close();
+
+ private:
+  friend class ExciteClient;
+  DataStream() = default;
+
+  std::string session_;
+  grpc::ClientContext context_;
+  std::unique_ptr<grpc::ClientReaderWriter<v1::AddDataRequest, v1::AddDataAck>> stream_;
+  absl::Status finished_;  // set once the stream ended
+  bool done_ = false;
+};
+
 // A thin synchronous wrapper over ExplorationService stubs: sets deadlines and
 // turns grpc::Status into absl::Status (same code, same message). Thread-safe.
 class ExciteClient {
@@ -61,6 +88,12 @@ class ExciteClient {
   absl::StatusOr<v1::AddDataResponse> AddData(
       const std::string& session,
       const std::vector<std::vector<v1::Transition>>& batches);
+  // A StreamData stream to `session` ("sessions/{id}"), acknowledged message by
+  // message; `deadline` bounds the whole stream (none by default: streams of a
+  // plant may run for hours).
+  std::unique_ptr<DataStream> OpenDataStream(
+      const std::string& session,
+      std::chrono::milliseconds deadline = std::chrono::hours(24 * 365));
   absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request);
   absl::StatusOr<v1::PlanInputsResponse> PlanInputs(const std::string& session,
                                                     const std::vector<double>& state);

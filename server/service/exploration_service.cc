@@ -52,6 +52,11 @@ void ExplorationService::StartDraining() {
   draining_ = true;
 }
 
+bool ExplorationService::Draining() const {
+  absl::MutexLock lock(&mu_);
+  return draining_;
+}
+
 bool ExplorationService::WaitIdle(absl::Duration timeout) {
   absl::MutexLock lock(&mu_);
   const auto idle = [this]()
@@ -176,6 +181,37 @@ grpc::Status ExplorationService::DeleteSession(grpc::ServerContext* /*context*/,
   });
 }
 
+absl::StatusOr<v1::AddDataResponse> ExplorationService::AddMessage(
+    const v1::AddDataRequest& request, int64_t message_index,
+    std::shared_ptr<Session>* session) {
+  if (*session == nullptr) {
+    if (request.session().empty()) {
+      return absl::InvalidArgumentError(
+          "session: required in the first message of the stream (\"sessions/{id}\")");
+    }
+    absl::StatusOr<std::shared_ptr<Session>> found =
+        FindSession(request.session(), "session");
+    if (!found.ok()) return found.status();
+    *session = *std::move(found);
+  } else if (!request.session().empty() && request.session() != (*session)->name()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("session: message ", message_index, " names ",
+                     absl::CHexEscape(request.session().substr(0, 100)),
+                     " but the stream started with ", (*session)->name()));
+  }
+  const auto naming_the_message = [message_index](const absl::Status& s) {
+    return WithMessage(s, absl::StrCat("message ", message_index, ": ", s.message()));
+  };
+  if (absl::Status s = ValidateTransitions((*session)->config(), request.transitions());
+      !s.ok()) {
+    return naming_the_message(s);
+  }
+  absl::StatusOr<v1::AddDataResponse> added =
+      (*session)->AddTransitions(request.transitions(), limits_.max_samples_per_session);
+  if (absl::IsInvalidArgument(added.status())) return naming_the_message(added.status());
+  return added;
+}
+
 grpc::Status ExplorationService::AddData(grpc::ServerContext* context,
                                          grpc::ServerReader<v1::AddDataRequest>* reader,
                                          v1::AddDataResponse* response) {
@@ -185,40 +221,18 @@ grpc::Status ExplorationService::AddData(grpc::ServerContext* context,
     v1::AddDataRequest request;
     int64_t stored = 0;
     int64_t duplicates = 0;
-    int message_index = 0;
-    for (; reader->Read(&request); ++message_index) {
-      if (session == nullptr) {
-        if (request.session().empty()) {
-          return absl::InvalidArgumentError(
-              "session: required in the first AddData message (\"sessions/{id}\")");
-        }
-        absl::StatusOr<std::string> id = ParseSessionName(request.session(), "session");
-        if (!id.ok()) return id.status();
-        absl::StatusOr<std::shared_ptr<Session>> found = registry_->Get(*id);
-        if (!found.ok()) return found.status();
-        session = *std::move(found);
-        name = session->name();
-      } else if (!request.session().empty() && request.session() != name) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("session: message ", message_index, " names ",
-                         absl::CHexEscape(request.session().substr(0, 100)),
-                         " but the stream started with ", name));
+    for (int64_t index = 0; reader->Read(&request); ++index) {
+      absl::StatusOr<v1::AddDataResponse> added = AddMessage(request, index, &session);
+      if (!added.ok()) {
+        // Earlier messages are stored, but this reply is the stream's only one:
+        // say so (StreamData acknowledges each message instead).
+        return index == 0
+                   ? added.status()
+                   : WithMessage(added.status(),
+                                 absl::StrCat(added.status().message(), " (messages 0-",
+                                              index - 1, " of the stream are stored)"));
       }
-      if (absl::Status s = ValidateTransitions(session->config(), request.transitions());
-          !s.ok()) {
-        return WithMessage(
-            s, absl::StrCat("AddData message ", message_index, ": ", s.message(),
-                            " (earlier messages of the stream are stored)"));
-      }
-      absl::StatusOr<v1::AddDataResponse> added =
-          session->AddTransitions(request.transitions(), limits_.max_samples_per_session);
-      if (absl::IsInvalidArgument(added.status())) {
-        return WithMessage(added.status(),
-                           absl::StrCat("AddData message ", message_index, ": ",
-                                        added.status().message(),
-                                        " (earlier messages of the stream are stored)"));
-      }
-      if (!added.ok()) return added.status();
+      name = session->name();
       stored += added->stored();
       duplicates += added->duplicates();
     }
@@ -234,6 +248,41 @@ grpc::Status ExplorationService::AddData(grpc::ServerContext* context,
     const v1::Session described = session->Describe();
     response->set_sample_count(described.sample_count());
     response->set_model_version(described.model_version());
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::StreamData(
+    grpc::ServerContext* context,
+    grpc::ServerReaderWriter<v1::AddDataAck, v1::AddDataRequest>* stream) {
+  std::string name;  // the stream's session, for the log line
+  return RunRpc("StreamData", name, [&]() -> absl::Status {
+    std::shared_ptr<Session> session;
+    v1::AddDataRequest request;
+    for (int64_t index = 0; stream->Read(&request); ++index) {
+      absl::StatusOr<v1::AddDataResponse> added = AddMessage(request, index, &session);
+      if (!added.ok()) return added.status();
+      name = session->name();
+      v1::AddDataAck ack;
+      ack.set_message_index(index);
+      ack.set_stored(added->stored());
+      ack.set_duplicates(added->duplicates());
+      ack.set_sample_count(added->sample_count());
+      ack.set_model_version(added->model_version());
+      if (!stream->Write(ack)) {
+        return absl::CancelledError(absl::StrCat(
+            "StreamData: the client went away; message ", index, " is stored"));
+      }
+      if (Draining()) {
+        return absl::UnavailableError(absl::StrCat(
+            "excite-server is shutting down: message ", index,
+            " and those before it are stored; resend the rest to another replica or "
+            "later"));
+      }
+    }
+    if (context->IsCancelled()) {
+      return absl::CancelledError("StreamData was cancelled by the client");
+    }
     return absl::OkStatus();
   });
 }

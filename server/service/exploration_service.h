@@ -57,6 +57,9 @@ class ExplorationService final : public v1::ExplorationService::Service {
   grpc::Status AddData(grpc::ServerContext* context,
                        grpc::ServerReader<v1::AddDataRequest>* reader,
                        v1::AddDataResponse* response) override;
+  grpc::Status StreamData(
+      grpc::ServerContext* context,
+      grpc::ServerReaderWriter<v1::AddDataAck, v1::AddDataRequest>* stream) override;
   grpc::Status Predict(grpc::ServerContext* context, const v1::PredictRequest* request,
                        v1::PredictResponse* response) override;
   grpc::Status PlanInputs(grpc::ServerContext* context,
@@ -73,6 +76,8 @@ class ExplorationService final : public v1::ExplorationService::Service {
   void StartDraining();
   // Waits until no RPC is in flight or `timeout` passed; true if idle.
   bool WaitIdle(absl::Duration timeout);
+  // True once StartDraining() was called.
+  bool Draining() const;
 
  private:
   // Runs one RPC body: refuses it while draining, counts it in flight, catches
@@ -83,12 +88,19 @@ class ExplorationService final : public v1::ExplorationService::Service {
   // if malformed, NOT_FOUND if unknown).
   absl::StatusOr<std::shared_ptr<Session>> FindSession(const std::string& name,
                                                        absl::string_view field) const;
+  // One message of an AddData or StreamData stream: on the first, finds the
+  // session into *session; then validates the message and stores it
+  // (Session::AddTransitions, whose reply counts this message). INVALID_ARGUMENT
+  // names "message {index}".
+  absl::StatusOr<v1::AddDataResponse> AddMessage(const v1::AddDataRequest& request,
+                                                 int64_t message_index,
+                                                 std::shared_ptr<Session>* session);
   // RESOURCE_EXHAUSTED naming `field` if a validated config's horizon exceeds
   // limits_.max_horizon.
   absl::Status CheckHorizonCap(const v1::SessionConfig& validated,
                                absl::string_view field) const;
 
-  absl::Mutex mu_;
+  mutable absl::Mutex mu_;
   bool draining_ ABSL_GUARDED_BY(mu_) = false;
   int64_t in_flight_ ABSL_GUARDED_BY(mu_) = 0;
 

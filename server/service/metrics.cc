@@ -28,6 +28,7 @@ const prometheus::Histogram::BucketBoundaries& Bounds() {
 }
 
 constexpr absl::string_view kAddDataPath = "/excite.v1.ExplorationService/AddData";
+constexpr absl::string_view kStreamDataPath = "/excite.v1.ExplorationService/StreamData";
 constexpr absl::string_view kPlanPath = "/excite.v1.ExplorationService/PlanInputs";
 
 class MetricsInterceptor final : public grpc::experimental::Interceptor {
@@ -44,6 +45,13 @@ class MetricsInterceptor final : public grpc::experimental::Interceptor {
       if (const auto* response =
               static_cast<const v1::AddDataResponse*>(methods->GetSendMessage())) {
         metrics_->AddSamplesStored(response->stored());
+      }
+    }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_MESSAGE) &&
+        method_ == kStreamDataPath) {
+      if (const auto* ack =
+              static_cast<const v1::AddDataAck*>(methods->GetSendMessage())) {
+        metrics_->AddSamplesStored(ack->stored());
       }
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_MESSAGE) &&

@@ -21,8 +21,8 @@ class CallbackGauges;
 // Process metrics, kept in a prometheus-cpp registry:
 //   excite_rpc_total{method,code}                 counter
 //   excite_rpc_latency_seconds{method,code}       histogram
-//   excite_samples_stored_total                   counter (AddData's `stored`)
-//   excite_plan_seconds                           histogram (PlanInputs' solver
+//   excite_samples_stored_total                   counter (AddData's and StreamData's
+//   `stored`) excite_plan_seconds                           histogram (PlanInputs' solver
 //                                                 wall time, wall_time_ms)
 //   excite_fit_seconds                            histogram (GP refits)
 //   excite_fits_stopped_total                     counter (refits ended early by a

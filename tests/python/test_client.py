@@ -5,6 +5,7 @@ import pathlib
 import re
 import subprocess
 import sys
+import time
 
 import grpc
 import numpy as np
@@ -208,7 +209,31 @@ def test_stream_sends_transitions_as_they_come(client):
         for i in range(10):
             stream.send(x[i], u[i], x_next[i])
     assert (stream.result.stored, stream.result.sample_count) == (10, 10)
+    assert stream.acknowledged == 10 and stream.unacknowledged() == []
     assert session.refresh().sample_count == 10 and session.last_sequence == 9
+    session.delete()
+
+
+def test_stream_acknowledges_each_message_and_says_what_to_resend(client):
+    session = client.create_session(linear_config())
+    x, u, x_next, _, _ = linear_data(12, seed=7)
+    stream = session.stream(batch_size=4).__enter__()
+    for i in range(8):
+        stream.send(x[i], u[i], x_next[i])
+    deadline = time.time() + 10
+    while stream.acknowledged < 8 and time.time() < deadline:
+        time.sleep(0.01)
+    assert stream.acknowledged == 8  # two messages, each stored then acknowledged
+    assert session.refresh().sample_count == 8
+    # A transition the server refuses ends the stream; the acknowledged ones stay.
+    stream.send(x[8], u[8], x_next[8])
+    stream.send([float("nan"), 0.0], u[9], x_next[9])
+    with pytest.raises(grpc.RpcError) as error:
+        stream.close()
+    assert error.value.code() == grpc.StatusCode.INVALID_ARGUMENT
+    assert "message 2" in error.value.details()
+    assert [t.sequence for t in stream.unacknowledged()] == [8, 9]
+    assert session.refresh().sample_count == 8
     session.delete()
 
 
@@ -312,6 +337,11 @@ def test_session_calls_carry_the_routing_header():
             n = sum(len(r.transitions) for r in request_iterator)
             return excite.pb.AddDataResponse(stored=n, sample_count=n)
 
+        def StreamData(self, request_iterator, context):
+            self._record("StreamData", context)
+            for i, r in enumerate(request_iterator):
+                yield excite.pb.AddDataAck(message_index=i, stored=len(r.transitions))
+
         def Predict(self, request, context):
             self._record("Predict", context)
             return excite.pb.PredictResponse(mean=[0.0, 0.0], variance=[1.0, 1.0])
@@ -342,7 +372,7 @@ def test_session_calls_carry_the_routing_header():
             c.session("sessions/routed").delete()
     finally:
         server.stop(None)
-    assert [m for m, _ in seen] == ["CreateSession", "GetSession", "AddData", "AddData",
+    assert [m for m, _ in seen] == ["CreateSession", "GetSession", "AddData", "StreamData",
                                     "Predict", "PlanInputs", "GetSession", "DeleteSession"]
     assert all(header == "routed" for _, header in seen), seen
 

@@ -2,7 +2,9 @@
 // transitions, the server is killed with SIGKILL at a random moment, restarted
 // on the same data directory, and every acknowledged sample must be there
 // exactly once; a retry of the unacknowledged tail then stores exactly the
-// missing ones.
+// missing ones. With StreamData (one acknowledgement per message) on one long
+// stream, what is stored after a kill is the acknowledged messages plus at most
+// the one in flight.
 
 #include <signal.h>
 
@@ -56,6 +58,31 @@ std::unique_ptr<client::ExciteClient> Connect(ServerProcess* server) {
   return client::ExciteClient::Connect("127.0.0.1:" + port, options);
 }
 
+// The one-dimensional session both tests stream into (fixed hyperparameters).
+void CreateKillSession(const std::string& data_dir) {
+  ServerProcess server(data_dir);
+  auto client = Connect(&server);
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(R"pb(
+    state_dim: 1
+    input_dim: 1
+    input_bounds { lower: -1 upper: 1 }
+    noise { variance: 0.0001 }
+    # Fixed hyperparameters: the sessions grow to ~1500 samples, and an ML-II
+    # fit of that size is seconds of CPU this durability test does not need.
+    kernel {
+      fit: false
+      fixed {
+        signal_variance: 1
+        lengthscales: [ 2, 2 ]
+        noise_variance: 0.0001
+      }
+    }
+  )pb");
+  ASSERT_TRUE(config.ok()) << config.status();
+  ASSERT_TRUE(client->CreateSession(*config, "kill").ok());
+}  // SIGKILLed by the destructor
+
 TEST(KillRestartTest, AcknowledgedSamplesSurviveSigkillExactlyOnce) {
   excite::testing::TempDir tmp;
   const std::string data_dir = tmp.path() + "/data";
@@ -63,29 +90,7 @@ TEST(KillRestartTest, AcknowledgedSamplesSurviveSigkillExactlyOnce) {
   std::mt19937 rng(12345);
   std::uniform_int_distribution<int> delay_ms(20, 400);
 
-  {
-    ServerProcess server(data_dir);
-    auto client = Connect(&server);
-    ASSERT_NE(client, nullptr);
-    absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(R"pb(
-      state_dim: 1
-      input_dim: 1
-      input_bounds { lower: -1 upper: 1 }
-      noise { variance: 0.0001 }
-      # Fixed hyperparameters: the sessions grow to ~1500 samples, and an ML-II
-      # fit of that size is seconds of CPU this durability test does not need.
-      kernel {
-        fit: false
-        fixed {
-          signal_variance: 1
-          lengthscales: [ 2, 2 ]
-          noise_variance: 0.0001
-        }
-      }
-    )pb");
-    ASSERT_TRUE(config.ok()) << config.status();
-    ASSERT_TRUE(client->CreateSession(*config, "kill").ok());
-  }  // SIGKILLed by the destructor
+  CreateKillSession(data_dir);
 
   int64_t acked_end = 0;  // sequences [0, acked_end) were acknowledged
   int64_t sent_end = 0;   // sequences [0, sent_end) were sent at least once
@@ -173,6 +178,73 @@ TEST(KillRestartTest, AcknowledgedSamplesSurviveSigkillExactlyOnce) {
   std::cout << kCycles << " SIGKILL cycles, " << sent_end << " samples, "
             << total_killed_unacked << " unacknowledged at a kill (retried), of which "
             << stored_unacked << " had been stored\n";
+}
+
+TEST(KillRestartTest, StreamDataAcknowledgesExactlyWhatSurvivesSigkill) {
+  excite::testing::TempDir tmp;
+  const std::string data_dir = tmp.path() + "/data";
+  const std::string session = "sessions/kill";
+  CreateKillSession(data_dir);
+  std::mt19937 rng(777);
+  std::uniform_int_distribution<int> delay_ms(20, 400);
+
+  int64_t acked_end = 0;  // sequences [0, acked_end) were acknowledged
+  int64_t in_flight = 0;  // transitions sent after the last acknowledgement
+  int64_t stored_in_flight = 0;
+  for (int cycle = 0; cycle < kCycles / 2; ++cycle) {
+    ServerProcess server(data_dir);
+    auto client = Connect(&server);
+    ASSERT_NE(client, nullptr) << "cycle " << cycle;
+    absl::StatusOr<v1::Session> info = client->GetSession(session);
+    ASSERT_TRUE(info.ok()) << info.status();
+    // Exactly the acknowledged messages, plus at most the one in flight.
+    EXPECT_GE(info->sample_count(), acked_end) << "cycle " << cycle;
+    EXPECT_LE(info->sample_count(), acked_end + in_flight) << "cycle " << cycle;
+    stored_in_flight += info->sample_count() - acked_end;
+    // Resume from the first unacknowledged message, as a plant would.
+    std::unique_ptr<client::DataStream> stream = client->OpenDataStream(session);
+    absl::StatusOr<v1::AddDataAck> resent =
+        stream->Send(Range(acked_end, acked_end + in_flight));
+    if (in_flight > 0) {
+      ASSERT_TRUE(resent.ok()) << resent.status();
+      EXPECT_EQ(resent->stored() + resent->duplicates(), in_flight);
+      EXPECT_EQ(resent->sample_count(), acked_end + in_flight);
+      acked_end += in_flight;
+    }
+
+    const int delay = delay_ms(rng);
+    std::thread killer([&server, delay]() {
+      std::this_thread::sleep_for(std::chrono::milliseconds(delay));
+      kill(server.pid(), SIGKILL);
+    });
+    int messages = 0;
+    while (true) {
+      in_flight = kBatch;
+      absl::StatusOr<v1::AddDataAck> ack =
+          stream->Send(Range(acked_end, acked_end + kBatch));
+      if (!ack.ok()) break;  // the stream broke: this message is unacknowledged
+      EXPECT_EQ(ack->stored(), kBatch);
+      EXPECT_EQ(ack->sample_count(), acked_end + kBatch);
+      acked_end += kBatch;
+      in_flight = 0;
+      ++messages;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    killer.join();
+    std::cout << "StreamData cycle " << cycle << ": killed after " << delay << " ms, "
+              << messages << " messages acknowledged on one stream, acked " << acked_end
+              << "\n";
+  }
+  ServerProcess server(data_dir);
+  auto client = Connect(&server);
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<v1::Session> info = client->GetSession(session);
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_GE(info->sample_count(), acked_end);
+  EXPECT_LE(info->sample_count(), acked_end + in_flight);
+  std::cout << "StreamData: " << acked_end
+            << " acknowledged; of the in-flight messages at " << kCycles / 2 << " kills, "
+            << stored_in_flight << " transitions had been stored\n";
 }
 
 }  // namespace

@@ -379,6 +379,75 @@ TEST_F(ServiceTest, RestartKeepsExactlyTheAcknowledgedSamples) {
   EXPECT_NEAR(restored->mean(1), before->mean(1), 1e-3);
 }
 
+// StreamData acknowledges each message once it is stored, so a plant knows
+// exactly what to resend: after an invalid message, a cancelled stream or a
+// restart, the session holds the acknowledged messages (and a resend of the rest
+// stores each transition once).
+TEST_F(ServiceTest, StreamDataAcknowledgesEachStoredMessage) {
+  const std::string name = Create("acked").name();
+  const std::vector<v1::Transition> data = PendulumTransitions(60, 0, 8);
+  auto batch = [&data](int k) {  // transitions 10k .. 10k + 9
+    return std::vector<v1::Transition>(data.begin() + 10 * k, data.begin() + 10 * k + 10);
+  };
+
+  std::unique_ptr<client::DataStream> stream = client_->OpenDataStream(name);
+  for (int k = 0; k < 3; ++k) {
+    absl::StatusOr<v1::AddDataAck> ack = stream->Send(batch(k));
+    ASSERT_TRUE(ack.ok()) << ack.status();
+    EXPECT_EQ(ack->message_index(), k);
+    EXPECT_EQ(ack->stored(), 10);
+    EXPECT_EQ(ack->duplicates(), 0);
+    EXPECT_EQ(ack->sample_count(), 10 * (k + 1));
+    EXPECT_EQ(ack->model_version(), k + 1);
+    // Acknowledged means stored: another client sees it at once.
+    EXPECT_EQ(client_->GetSession(name)->sample_count(), 10 * (k + 1));
+  }
+  // A retried message: acknowledged, stored nothing new.
+  absl::StatusOr<v1::AddDataAck> retried = stream->Send(batch(1));
+  ASSERT_TRUE(retried.ok()) << retried.status();
+  EXPECT_EQ(retried->message_index(), 3);
+  EXPECT_EQ(retried->stored(), 0);
+  EXPECT_EQ(retried->duplicates(), 10);
+  // An invalid message ends the stream with its error; nothing of it is stored.
+  std::vector<v1::Transition> bad = batch(3);
+  bad[4].set_state(0, std::nan(""));
+  absl::StatusOr<v1::AddDataAck> refused = stream->Send(bad);
+  ExpectStatus(refused.status(), absl::StatusCode::kInvalidArgument,
+               "message 4: transitions[4].state[0]");
+  EXPECT_EQ(stream->Send(batch(3)).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(client_->GetSession(name)->sample_count(), 30);
+
+  // A stream dropped by its client after one acknowledgement: that message is
+  // stored and survives a restart.
+  stream = client_->OpenDataStream(name);
+  ASSERT_TRUE(stream->Send(batch(3)).ok());
+  stream.reset();  // cancels the call
+  StopServer();
+  StartServer();
+  EXPECT_EQ(client_->GetSession(name)->sample_count(), 40);
+
+  // Resending everything on a new stream stores only what is new.
+  stream = client_->OpenDataStream(name);
+  int64_t stored = 0, duplicates = 0;
+  for (int k = 0; k < 6; ++k) {
+    absl::StatusOr<v1::AddDataAck> ack = stream->Send(batch(k));
+    ASSERT_TRUE(ack.ok()) << ack.status();
+    stored += ack->stored();
+    duplicates += ack->duplicates();
+  }
+  EXPECT_TRUE(stream->Close().ok());
+  EXPECT_EQ(stored, 20);
+  EXPECT_EQ(duplicates, 40);
+  EXPECT_EQ(client_->GetSession(name)->sample_count(), 60);
+  EXPECT_EQ(client_->GetSession(name)->last_sequence(), 59);
+
+  // The first message must name a session that exists.
+  stream = client_->OpenDataStream("sessions/nope");
+  ExpectStatus(stream->Send(batch(0)).status(), absl::StatusCode::kNotFound,
+               "sessions/nope");
+}
+
 TEST_F(ServiceTest, RefitNeverKeepsSavedHyperparametersAcrossRestart) {
   v1::SessionConfig config = PendulumConfig();
   config.mutable_refit()->set_never(true);

@@ -387,15 +387,17 @@ class Session:
         return reply
 
     def stream(self, batch_size=32, timeout_s=None):
-        """A long-lived AddData stream for logging transitions as they happen::
+        """A long-lived StreamData stream for logging transitions as they happen::
 
             with session.stream() as s:
                 s.send(x, u, x_next)   # repeatedly
-            print(s.result.stored)
+            print(s.result.stored, s.acknowledged)
 
         Transitions go out in messages of `batch_size` (and whatever is left when
-        the stream closes). Each message is stored when it arrives, but only the
-        reply at the end says so: to plan on the newest data, use :meth:`add`."""
+        the stream closes). The server stores each message, then acknowledges it:
+        `acknowledged` counts the transitions known to be stored, and after a broken
+        stream `unacknowledged()` lists those to resend (with the same sequence
+        numbers, so nothing is stored twice)."""
         return TransitionStream(self, batch_size, timeout_s)
 
     def predict(self, z=None, *, states=None, inputs=None, include_noise=False):
@@ -460,31 +462,58 @@ class TransitionStream:
         self.session = session
         self.batch_size = batch_size
         self.timeout_s = timeout_s
-        self.result = None  # the AddDataResponse once closed
+        self.result = None  # an AddDataResponse summing the acknowledgements, once closed
+        self.acknowledged = 0  # transitions acknowledged (stored, or already stored)
         self._pending = []
+        self._sent = collections.deque()  # messages sent and not yet acknowledged
         self._queue = queue.Queue()
-        self._future = None
         self._lock = threading.Lock()
+        self._stored = 0
+        self._duplicates = 0
+        self._last_ack = None
+        self._error = None
+        self._call = None
+        self._reader = None
 
     def _requests(self):
         first = True
         while True:
             item = self._queue.get()
             if item is self._END:
-                if first:  # the first message must name the session
-                    yield pb.AddDataRequest(session=self.session.name)
                 return
             yield pb.AddDataRequest(session=self.session.name if first else "",
                                     transitions=item)
             first = False
 
+    def _read_acks(self):
+        try:
+            for ack in self._call:
+                with self._lock:
+                    acked = self._sent.popleft()
+                    self.acknowledged += len(acked)
+                    self._stored += ack.stored
+                    self._duplicates += ack.duplicates
+                    self._last_ack = ack
+        except grpc.RpcError as error:
+            self._error = error
+
     def __enter__(self):
-        self._future = self.session.client.stub.AddData.future(
+        self._call = self.session.client.stub.StreamData(
             self._requests(), timeout=self.timeout_s, metadata=self.session.metadata)
+        self._reader = threading.Thread(target=self._read_acks, daemon=True)
+        self._reader.start()
         return self
 
+    def _flush(self):  # with self._lock held
+        if self._pending:
+            self._sent.append(self._pending)
+            self._queue.put(self._pending)
+            self._pending = []
+
     def send(self, state, input, next_state, *, sequence=None, timestamp=None):
-        """Queues one transition (1-D arrays)."""
+        """Queues one transition (1-D arrays). Raises the stream's error if it failed."""
+        if self._error is not None:
+            raise self._error
         with self._lock:
             (transition,) = self.session._transitions(
                 state, input, next_state,
@@ -492,17 +521,27 @@ class TransitionStream:
                 None if timestamp is None else [timestamp])
             self._pending.append(transition)
             if len(self._pending) >= self.batch_size:
-                self._queue.put(self._pending)
-                self._pending = []
+                self._flush()
+
+    def unacknowledged(self):
+        """The transitions sent or queued but not acknowledged (resend these)."""
+        with self._lock:
+            return [t for message in self._sent for t in message] + list(self._pending)
 
     def close(self):
-        """Sends what is pending, ends the stream and returns its AddDataResponse."""
+        """Sends what is pending, waits for every acknowledgement, ends the stream and
+        returns an AddDataResponse summing them. Raises the stream's error."""
         with self._lock:
-            if self._pending:
-                self._queue.put(self._pending)
-                self._pending = []
+            self._flush()
         self._queue.put(self._END)
-        self.result = self._future.result()
+        self._reader.join()
+        if self._error is not None:
+            raise self._error
+        last = self._last_ack
+        self.result = pb.AddDataResponse(
+            stored=self._stored, duplicates=self._duplicates,
+            sample_count=last.sample_count if last else self.session.sample_count,
+            model_version=last.model_version if last else self.session.model_version)
         self.session.sample_count = self.result.sample_count
         self.session.model_version = self.result.model_version
         return self.result
@@ -511,7 +550,7 @@ class TransitionStream:
         if exc_type is None:
             self.close()
         else:
-            self._future.cancel()
+            self._call.cancel()
             self._queue.put(self._END)  # unblocks the request iterator
 
 
