@@ -169,7 +169,7 @@ int64_t DynamicsModel::PeakBytes(int64_t samples, int state_dim, int input_dim,
   // A refit's gradient per output being fitted: L^-1, K^-1, W = alpha alpha^T -
   // K^-1 and W o K, of which about four are alive at once (measured: the peak of a
   // real server is 0.9-1.0 of the estimate with three).
-  const int64_t fitting = std::clamp(fit_threads, 1, std::max(state_dim, 1));
+  const int64_t fitting = state_dim > 0 ? std::clamp(fit_threads, 1, state_dim) : 0;
   const int64_t doubles = state_dim * per_output + shared + fitting * 4 * n * n;
   return doubles * static_cast<int64_t>(sizeof(double));
 }

@@ -192,6 +192,7 @@ absl::StatusOr<v1::AddDataResponse> ExplorationService::AddMessage(
     absl::StatusOr<std::shared_ptr<Session>> found =
         FindSession(request.session(), "session");
     if (!found.ok()) return found.status();
+    if (absl::Status s = (*found)->Damage(); !s.ok()) return s;
     *session = *std::move(found);
   } else if (!request.session().empty() && request.session() != (*session)->name()) {
     return absl::InvalidArgumentError(
@@ -294,6 +295,8 @@ grpc::Status ExplorationService::Predict(grpc::ServerContext* context,
     absl::StatusOr<std::shared_ptr<Session>> session =
         FindSession(request->session(), "session");
     if (!session.ok()) return session.status();
+    // Before validating against a config a damaged session may not have.
+    if (absl::Status s = (*session)->Damage(); !s.ok()) return s;
     if (absl::Status s = ValidatePredictInputs((*session)->config(), request->inputs(),
                                                limits_.max_predict_points);
         !s.ok()) {
@@ -316,6 +319,8 @@ grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
     absl::StatusOr<std::shared_ptr<Session>> session =
         FindSession(request->session(), "session");
     if (!session.ok()) return session.status();
+    // Before validating against a config a damaged session may not have.
+    if (absl::Status s = (*session)->Damage(); !s.ok()) return s;
     if (absl::Status s = ValidatePlanState((*session)->config(), request->state());
         !s.ok()) {
       return s;

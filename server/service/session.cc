@@ -89,8 +89,8 @@ std::optional<ParsedFit> ParseSavedHyperparameters(const std::string& bytes,
 
 }  // namespace
 
-Session::Session(std::string id, v1::SessionConfig config, gp::DynamicsModel model,
-                 store::SqliteStore* store)
+Session::Session(std::string id, v1::SessionConfig config,
+                 std::optional<gp::DynamicsModel> model, store::SqliteStore* store)
     : id_(std::move(id)),
       name_(SessionName(id_)),
       config_(std::move(config)),
@@ -120,11 +120,15 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
 
 absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
     const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
-    store::SqliteStore* store) {
+    store::SqliteStore* store, absl::Status unreadable) {
   v1::SessionConfig config;
   if (!config.ParseFromString(record.config)) {
-    return absl::DataLossError(
-        absl::StrCat("session ", record.id, ": the stored config does not parse"));
+    config.Clear();
+    return SetAside(record, std::move(config), samples,
+                    absl::DataLossError("its stored config does not parse"), store);
+  }
+  if (!unreadable.ok()) {
+    return SetAside(record, std::move(config), samples, std::move(unreadable), store);
   }
   try {
     gp::DynamicsModelOptions options = ModelOptionsFromConfig(config);
@@ -174,21 +178,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
       }
     }
     if (!damaged.ok()) {
-      // Set aside, not fatal: the server serves every other session.
-      damaged = absl::DataLossError(absl::StrCat(
-          "session ", SessionName(record.id), " is damaged: ", damaged.message(),
-          "; its data is kept: ExportSession reads what is stored, DeleteSession "
-          "removes it"));
-      Log(LogLevel::kError, std::string(damaged.message()));
-      std::shared_ptr<Session> session(
-          new Session(record.id, std::move(config), *std::move(model), store));
-      absl::MutexLock lock(&session->mu_);
-      session->damaged_ = std::move(damaged);
-      session->sample_count_ = n;
-      session->last_sequence_ = last_sequence;
-      session->model_version_ = record.model_version + n;
-      session->PublishInfo();
-      return session;
+      return SetAside(record, std::move(config), samples, std::move(damaged), store);
     }
     if (options_fit_kernel) {
       // The model is rebuilt with the last saved fit while it is current, and
@@ -219,6 +209,32 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
   }
 }
 
+std::shared_ptr<Session> Session::SetAside(
+    const store::SessionRecord& record, v1::SessionConfig config,
+    const std::vector<store::SampleRecord>& samples, absl::Status damage,
+    store::SqliteStore* store) {
+  // Not fatal: the server serves every other session.
+  absl::Status damaged = absl::DataLossError(absl::StrCat(
+      "session ", SessionName(record.id), " is damaged: ", damage.message(),
+      "; its data is kept: ExportSession reads what is readable, DeleteSession "
+      "removes it"));
+  Log(LogLevel::kError, std::string(damaged.message()));
+  int64_t last_sequence = -1;
+  for (const store::SampleRecord& s : samples) {
+    last_sequence = std::max(last_sequence, s.sequence);
+  }
+  const auto n = static_cast<int64_t>(samples.size());
+  std::shared_ptr<Session> session(
+      new Session(record.id, std::move(config), std::nullopt, store));
+  absl::MutexLock lock(&session->mu_);
+  session->damaged_ = std::move(damaged);
+  session->sample_count_ = n;
+  session->last_sequence_ = last_sequence;
+  session->model_version_ = record.model_version + n;
+  session->PublishInfo();
+  return session;
+}
+
 v1::Session Session::Describe() const {
   v1::Session proto;
   proto.set_name(name_);
@@ -231,17 +247,23 @@ v1::Session Session::Describe() const {
   return proto;
 }
 
+absl::Status Session::Damage() const {
+  absl::MutexLock lock(&info_mu_);
+  return info_.damage;
+}
+
 void Session::PublishInfo() {
   Info info;
+  info.damage = damaged_;
   info.sample_count = sample_count_;
   info.last_sequence = last_sequence_;
   info.model_version = model_version_;
   // After a restart and before the first refit: the saved hyperparameters (the
   // warm start of that refit), without a log marginal likelihood.
-  {
-    const std::vector<gp::Hyperparameters> hyperparameters = model_.hyperparameters();
-    const std::vector<double> lml = model_.log_marginal_likelihoods();
-    const Eigen::VectorXd prior_means = model_.prior_means();
+  if (model_.has_value()) {
+    const std::vector<gp::Hyperparameters> hyperparameters = model_->hyperparameters();
+    const std::vector<double> lml = model_->log_marginal_likelihoods();
+    const Eigen::VectorXd prior_means = model_->prior_means();
     for (size_t i = 0; i < hyperparameters.size(); ++i) {
       v1::OutputModel output;
       *output.mutable_hyperparameters() = ToProto(hyperparameters[i]);
@@ -270,7 +292,7 @@ absl::Status Session::CheckModelAccepts(const std::vector<store::SampleRecord>& 
     inputs.row(i) = Eigen::Map<const Eigen::RowVectorXd>(r.input.data(), du);
     next_states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(r.next_state.data(), dx);
   }
-  absl::Status checked = model_.CheckSamples(states, inputs, next_states);
+  absl::Status checked = model_->CheckSamples(states, inputs, next_states);
   if (checked.ok()) return checked;
   return FieldViolationError(
       "transitions",
@@ -338,7 +360,7 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
       }
       absl::Status added;
       try {
-        added = model_.AddSamples(states, inputs, next_states);
+        added = model_->AddSamples(states, inputs, next_states);
       } catch (const std::exception& e) {
         added = InternalFromException("adding samples to the GP", e);
       }
@@ -374,12 +396,12 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
         " are needed before Predict/PlanInputs: stream data with AddData first"));
   }
   const bool refit_due = config_.kernel().fit() && !config_.refit().never() &&
-                         model_.samples_since_fit() >= config_.refit().every_samples();
-  if (model_.fitted() && !refit_due) return absl::OkStatus();
+                         model_->samples_since_fit() >= config_.refit().every_samples();
+  if (model_->fitted() && !refit_due) return absl::OkStatus();
   if (!refit_due && config_.kernel().fit() && !config_.refit().never() &&
-      !model_.hyperparameters().empty()) {
+      !model_->hyperparameters().empty()) {
     // Restored with a fit that is still current: predict as before the restart.
-    if (absl::Status s = model_.Rebuild(); !s.ok()) {
+    if (absl::Status s = model_->Rebuild(); !s.ok()) {
       return absl::InternalError(absl::StrCat("rebuilding session ", name_, " with ",
                                               sample_count_,
                                               " samples failed: ", s.message()));
@@ -393,7 +415,7 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
   };
   absl::StatusOr<gp::FitSummary> summary;
   try {
-    summary = model_.Refit(stop);
+    summary = model_->Refit(stop);
   } catch (const std::exception& e) {
     summary = InternalFromException("refit", e);
   }
@@ -415,7 +437,7 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
                      " ms=", summary->wall_time_ms, summary->stopped ? " stopped" : ""));
   }
   v1::Session saved;  // store_conversion.h's format
-  saved.set_sample_count(sample_count_ - model_.samples_since_fit());
+  saved.set_sample_count(sample_count_ - model_->samples_since_fit());
   {
     absl::MutexLock lock(&info_mu_);
     for (const v1::OutputModel& output : info_.outputs) *saved.add_outputs() = output;
@@ -464,7 +486,7 @@ absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& r
   response.mutable_mean()->Reserve(static_cast<int>(m * dx));
   response.mutable_variance()->Reserve(static_cast<int>(m * dx));
   const Eigen::VectorXd noise =
-      request.include_noise() ? model_.noise_variances() : Eigen::VectorXd();
+      request.include_noise() ? model_->noise_variances() : Eigen::VectorXd();
   try {
     for (Eigen::Index first = 0; first < m; first += chunk) {
       if (first > 0 && (Clock::now() >= deadline || (cancelled && cancelled()))) {
@@ -480,7 +502,7 @@ absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& r
           request.inputs().data() + first * z_dim, rows, z_dim);
       Eigen::MatrixXd mean;
       Eigen::MatrixXd variance;
-      model_.Predict(z, &mean, &variance, nullptr, nullptr);
+      model_->Predict(z, &mean, &variance, nullptr, nullptr);
       if (mean.rows() != rows || mean.cols() != dx || variance.rows() != rows ||
           variance.cols() != dx) {
         return absl::InternalError(absl::StrCat(
@@ -526,7 +548,7 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
   plan::PlanSummary summary;
   absl::StatusOr<plan::Plan> plan;
   try {
-    plan = planner_.PlanInputs(model_, x0, sample_count_, limits, &summary);
+    plan = planner_.PlanInputs(*model_, x0, sample_count_, limits, &summary);
   } catch (const std::exception& e) {
     plan = InternalFromException("planner", e);
   }
@@ -572,7 +594,10 @@ absl::StatusOr<v1::SessionArchive> Session::Export() {
     if (absl::IsNotFound(record.status())) return NotDeleted(name_);
     return record.status();
   }
-  absl::StatusOr<std::vector<store::SampleRecord>> samples = store_->LoadSamples(id_);
+  // A damaged session exports the rows that can be read.
+  std::vector<int64_t> unreadable;
+  absl::StatusOr<std::vector<store::SampleRecord>> samples =
+      store_->LoadSamples(id_, damaged_.ok() ? nullptr : &unreadable);
   if (!samples.ok()) return samples.status();
   return ArchiveFromStore(*record, *samples);
 }

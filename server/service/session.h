@@ -60,9 +60,12 @@ class Session {
   // not fail the restore: the session is set aside as damaged (logged; AddData,
   // Predict and PlanInputs answer DATA_LOSS; Describe, Export and Delete work),
   // so one bad session never keeps the server from serving the others.
+  // `unreadable` not OK (DATA_LOSS saying which rows the caller could not read
+  // from the store), or a stored config that does not parse, also sets the
+  // session aside; `samples` are then the rows that could be read.
   static absl::StatusOr<std::shared_ptr<Session>> Restore(
       const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
-      store::SqliteStore* store);
+      store::SqliteStore* store, absl::Status unreadable = absl::OkStatus());
 
   const std::string& id() const { return id_; }
   // "sessions/{id}".
@@ -81,6 +84,10 @@ class Session {
   // The estimated peak memory of this session holding `samples` samples: the
   // model's (gp::DynamicsModel::PeakBytes) plus the session's own.
   int64_t EstimatedBytes(int64_t samples) const;
+
+  // DATA_LOSS if the session was set aside as damaged at restore (see Restore),
+  // else OK. Never waits for a call in progress.
+  absl::Status Damage() const;
 
   // name, config, sample_count, last_sequence, model_version and (when fitted,
   // or restored with saved hyperparameters) outputs.
@@ -135,10 +142,17 @@ class Session {
     int64_t last_sequence = -1;
     int64_t model_version = 0;
     std::vector<v1::OutputModel> outputs;
+    absl::Status damage;
   };
 
-  Session(std::string id, v1::SessionConfig config, gp::DynamicsModel model,
-          store::SqliteStore* store);
+  Session(std::string id, v1::SessionConfig config,
+          std::optional<gp::DynamicsModel> model, store::SqliteStore* store);
+  // A damaged session (see Restore): no model, every model call answers `damage`
+  // as DATA_LOSS.
+  static std::shared_ptr<Session> SetAside(
+      const store::SessionRecord& record, v1::SessionConfig config,
+      const std::vector<store::SampleRecord>& samples, absl::Status damage,
+      store::SqliteStore* store);
 
   absl::Status CheckUsable() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // INVALID_ARGUMENT unless the model can add `batch` (GP DynamicsModel::
@@ -163,7 +177,8 @@ class Session {
   MemoryBudget* budget_ = nullptr;
 
   absl::Mutex mu_;
-  gp::DynamicsModel model_ ABSL_GUARDED_BY(mu_);
+  // Empty only in a damaged session.
+  std::optional<gp::DynamicsModel> model_ ABSL_GUARDED_BY(mu_);
   plan::Planner planner_ ABSL_GUARDED_BY(mu_);
   int64_t sample_count_ ABSL_GUARDED_BY(mu_) = 0;
   int64_t last_sequence_ ABSL_GUARDED_BY(mu_) = -1;

@@ -1,9 +1,11 @@
 #include "server/service/session_registry.h"
 
+#include <algorithm>
 #include <utility>
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
 #include "server/service/config_validation.h"
 #include "server/service/logging.h"
@@ -49,11 +51,22 @@ absl::StatusOr<std::unique_ptr<SessionRegistry>> SessionRegistry::Load(
   if (!records.ok()) return records.status();
   absl::MutexLock lock(&registry->mu_);
   for (const store::SessionRecord& record : *records) {
+    // Rows that cannot be read set their session aside, not the server.
+    std::vector<int64_t> unreadable;
     absl::StatusOr<std::vector<store::SampleRecord>> samples =
-        store->LoadSamples(record.id);
+        store->LoadSamples(record.id, &unreadable);
     if (!samples.ok()) return samples.status();
+    absl::Status damage;
+    if (!unreadable.empty()) {
+      damage = absl::DataLossError(absl::StrCat(
+          unreadable.size(), " stored samples cannot be read (sequence ",
+          absl::StrJoin(unreadable.begin(),
+                        unreadable.begin() + std::min<size_t>(unreadable.size(), 5),
+                        ", "),
+          unreadable.size() > 5 ? ", ..." : "", ")"));
+    }
     absl::StatusOr<std::shared_ptr<Session>> session =
-        Session::Restore(record, *samples, store);
+        Session::Restore(record, *samples, store, std::move(damage));
     if (!session.ok()) return session.status();
     Log(LogLevel::kInfo, absl::StrCat("loaded ", (*session)->name(), " with ",
                                       samples->size(), " samples"));

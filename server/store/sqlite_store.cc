@@ -401,7 +401,7 @@ absl::StatusOr<SessionRecord> SqliteStore::LoadSession(const std::string& id) {
 }
 
 absl::StatusOr<std::vector<SampleRecord>> SqliteStore::LoadSamples(
-    const std::string& session_id) {
+    const std::string& session_id, std::vector<int64_t>* unreadable) {
   absl::MutexLock lock(&mu_);
   absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
       db_,
@@ -419,12 +419,16 @@ absl::StatusOr<std::vector<SampleRecord>> SqliteStore::LoadSamples(
     absl::StatusOr<std::vector<double>> state = stmt->ColumnDoubles(1);
     absl::StatusOr<std::vector<double>> input = stmt->ColumnDoubles(2);
     absl::StatusOr<std::vector<double>> next_state = stmt->ColumnDoubles(3);
-    for (const absl::StatusOr<std::vector<double>>* v : {&state, &input, &next_state}) {
-      if (!v->ok()) {
-        return absl::DataLossError(absl::StrCat("session ", session_id, " sample ",
-                                                record.sequence, ": ",
-                                                v->status().message()));
+    if (!state.ok() || !input.ok() || !next_state.ok()) {
+      if (unreadable != nullptr) {
+        unreadable->push_back(record.sequence);
+        continue;
       }
+      const absl::Status& bad = !state.ok()   ? state.status()
+                                : !input.ok() ? input.status()
+                                              : next_state.status();
+      return absl::DataLossError(absl::StrCat("session ", session_id, " sample ",
+                                              record.sequence, ": ", bad.message()));
     }
     record.state = *std::move(state);
     record.input = *std::move(input);

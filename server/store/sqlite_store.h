@@ -58,8 +58,11 @@ class SqliteStore {
   absl::StatusOr<std::vector<SessionRecord>> LoadSessions();
   // One session's record. NOT_FOUND if there is no such session.
   absl::StatusOr<SessionRecord> LoadSession(const std::string& id);
-  // All samples of one session in sequence order.
-  absl::StatusOr<std::vector<SampleRecord>> LoadSamples(const std::string& session_id);
+  // All samples of one session in sequence order. A row whose blobs cannot be
+  // decoded is DATA_LOSS, or, with `unreadable`, left out and its sequence
+  // number appended there.
+  absl::StatusOr<std::vector<SampleRecord>> LoadSamples(
+      const std::string& session_id, std::vector<int64_t>* unreadable = nullptr);
 
   // Stores `batch` in ONE transaction with INSERT OR IGNORE: a sample whose
   // sequence number is already stored for this session is a duplicate and is not

@@ -14,6 +14,7 @@
 #include "absl/strings/str_cat.h"
 #include "gtest/gtest.h"
 #include "server/store/sqlite_store.h"
+#include "sqlite3.h"
 #include "tests/service/pendulum_data.h"
 #include "tests/service/service_fixture.h"
 
@@ -165,12 +166,72 @@ TEST_F(HostileValuesTest, ASessionAnOlderVersionPoisonedIsSetAsideNotFatal) {
   ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kDataLoss,
                "session sessions/poisoned is damaged");
   ExpectStatus(client_->AddData(bad, {PendulumTransitions(1, 20, 5)}).status(),
-               absl::StatusCode::kDataLoss, "ExportSession reads what is stored");
+               absl::StatusCode::kDataLoss, "ExportSession reads what is readable");
   absl::StatusOr<v1::SessionArchive> exported = client_->ExportSession(bad);
   ASSERT_TRUE(exported.ok()) << exported.status();
   EXPECT_EQ(exported->samples_size(), 11);
   EXPECT_TRUE(client_->DeleteSession(bad).ok());
   EXPECT_EQ(client_->GetSession(bad).status().code(), absl::StatusCode::kNotFound);
+}
+
+// Damage to the store itself (a disk, a hand edit, another program): a sample
+// row whose blob is 2 bytes, and a session whose config no longer parses. Each
+// used to stop the server from starting ("DATA_LOSS: session bad sample 3: a blob
+// of doubles has 2 bytes"); now each session is set aside and the rest served.
+TEST_F(HostileValuesTest, DamagedRowsSetTheirSessionAsideNotTheServer) {
+  const std::string blob = Create("blob").name();
+  const std::string config = Create("config").name();
+  const std::string good = Create("fine").name();
+  Add(blob, {PendulumTransitions(10, 0, 3)});
+  Add(config, {PendulumTransitions(10, 0, 4)});
+  Add(good, {PendulumTransitions(10, 0, 5)});
+  StopServer();
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((options_.data_dir + "/excite.db").c_str(), &db), SQLITE_OK);
+    char* error = nullptr;
+    const char* damage =
+        "UPDATE samples SET state = x'0102' WHERE session_id = 'blob' AND sequence = 3;"
+        "UPDATE sessions SET config = x'ffffffff' WHERE id = 'config';";
+    EXPECT_EQ(sqlite3_exec(db, damage, nullptr, nullptr, &error), SQLITE_OK)
+        << (error != nullptr ? error : "");
+    sqlite3_free(error);
+    sqlite3_close(db);
+  }
+  StartServer();
+  ExpectAnswers(good);
+
+  v1::PredictRequest predict;
+  for (double v : {0.1, -0.2, 0.3}) predict.add_inputs(v);
+  predict.set_session(blob);
+  ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kDataLoss,
+               "session sessions/blob is damaged: 1 stored samples cannot be read "
+               "(sequence 3)");
+  predict.set_session(config);
+  ExpectStatus(client_->Predict(predict).status(), absl::StatusCode::kDataLoss,
+               "session sessions/config is damaged: its stored config does not parse");
+  ExpectStatus(client_->PlanInputs(config, {0.0, 0.0}).status(),
+               absl::StatusCode::kDataLoss, "sessions/config is damaged");
+
+  // Listed, described as far as readable, exported as far as readable.
+  absl::StatusOr<v1::ListSessionsResponse> listed = client_->ListSessions(0, "");
+  ASSERT_TRUE(listed.ok()) << listed.status();
+  EXPECT_EQ(listed->sessions_size(), 3);
+  EXPECT_EQ(client_->GetSession(blob)->sample_count(), 9);
+  absl::StatusOr<v1::SessionArchive> exported = client_->ExportSession(blob);
+  ASSERT_TRUE(exported.ok()) << exported.status();
+  EXPECT_EQ(exported->samples_size(), 9);
+  ExpectStatus(client_->ExportSession(config).status(), absl::StatusCode::kDataLoss,
+               "the stored config does not parse");
+  // Deleting removes them; the server restarts clean.
+  EXPECT_TRUE(client_->DeleteSession(blob).ok());
+  EXPECT_TRUE(client_->DeleteSession(config).ok());
+  StopServer();
+  StartServer();
+  listed = client_->ListSessions(0, "");
+  ASSERT_TRUE(listed.ok()) << listed.status();
+  EXPECT_EQ(listed->sessions_size(), 1);
+  ExpectAnswers(good);
 }
 
 // A number a hostile or broken client might send.
