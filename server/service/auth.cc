@@ -25,15 +25,20 @@ bool ConstantTimeEquals(absl::string_view a, absl::string_view b) {
   return diff == 0;
 }
 
-// Accepts a call if it carries "authorization: Bearer <token>" or calls the
-// health service (so that probes work without the token).
-class BearerTokenProcessor final : public grpc::AuthMetadataProcessor {
+// Checks every call but health checks (so that probes need no secret): with
+// `require_client_certificate`, that the TLS peer presented a certificate the
+// client CA signed (the handshake verified it: it only asks for one, so that
+// probes can connect without); with a non-empty `token`, that the call carries
+// "authorization: Bearer <token>".
+class CallAuthProcessor final : public grpc::AuthMetadataProcessor {
  public:
-  explicit BearerTokenProcessor(std::string token) : token_(std::move(token)) {}
+  CallAuthProcessor(std::string token, bool require_client_certificate)
+      : token_(std::move(token)),
+        require_client_certificate_(require_client_certificate) {}
 
   bool IsBlocking() const override { return false; }
 
-  grpc::Status Process(const InputMetadata& auth_metadata, grpc::AuthContext* /*context*/,
+  grpc::Status Process(const InputMetadata& auth_metadata, grpc::AuthContext* context,
                        OutputMetadata* consumed_auth_metadata,
                        OutputMetadata* /*response_metadata*/) override {
     const auto path = auth_metadata.find(":path");
@@ -42,6 +47,13 @@ class BearerTokenProcessor final : public grpc::AuthMetadataProcessor {
                          kHealthPrefix)) {
       return grpc::Status::OK;
     }
+    if (require_client_certificate_ &&
+        (context == nullptr || context->FindPropertyValues("x509_pem_cert").empty())) {
+      return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
+                          "this server requires a client certificate signed by its "
+                          "client CA (mutual TLS); only health checks work without");
+    }
+    if (token_.empty()) return grpc::Status::OK;
     const auto header = auth_metadata.find("authorization");
     if (header == auth_metadata.end()) {
       return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
@@ -59,6 +71,7 @@ class BearerTokenProcessor final : public grpc::AuthMetadataProcessor {
 
  private:
   const std::string token_;
+  const bool require_client_certificate_;
 };
 
 absl::StatusOr<std::string> ReadFile(const std::string& path) {
@@ -101,8 +114,9 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(
       absl::StatusOr<std::string> ca = ReadFile(options.tls_client_ca_file);
       if (!ca.ok()) return ca.status();
       ssl.pem_root_certs = *ca;
-      ssl.client_certificate_request =
-          GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+      // Asked for and verified if presented, required per call by
+      // CallAuthProcessor: health probes connect without one.
+      ssl.client_certificate_request = GRPC_SSL_REQUEST_CLIENT_CERTIFICATE_AND_VERIFY;
     }
     credentials = grpc::SslServerCredentials(ssl);
   } else if (!options.tls_client_ca_file.empty()) {
@@ -117,9 +131,10 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(
   } else {
     return grpc::InsecureServerCredentials();
   }
-  if (!options.auth_token.empty()) {
+  const bool mutual_tls = !options.tls_client_ca_file.empty();
+  if (!options.auth_token.empty() || mutual_tls) {
     credentials->SetAuthMetadataProcessor(
-        std::make_shared<BearerTokenProcessor>(options.auth_token));
+        std::make_shared<CallAuthProcessor>(options.auth_token, mutual_tls));
   }
   return credentials;
 }

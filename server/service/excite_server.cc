@@ -11,6 +11,7 @@
 #include "grpcpp/security/server_credentials.h"
 #include "grpcpp/server_builder.h"
 #include "server/service/logging.h"
+#include "server/service/malformed_request_interceptor.h"
 
 namespace excite::service {
 
@@ -88,12 +89,14 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
   // Never share a port with another process (gRPC enables SO_REUSEPORT otherwise).
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(server->service_.get());
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
+      interceptors;
+  // First: the metrics see the status it sends.
+  interceptors.push_back(MakeMalformedRequestInterceptorFactory());
   if (server->metrics_ != nullptr) {
-    std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
-        interceptors;
     interceptors.push_back(MakeMetricsInterceptorFactory(server->metrics_.get()));
-    builder.experimental().SetInterceptorCreators(std::move(interceptors));
   }
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || bound_port == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", options.listen));

@@ -237,6 +237,36 @@ def test_stream_acknowledges_each_message_and_says_what_to_resend(client):
     session.delete()
 
 
+def test_unparsable_request_bytes_are_invalid_argument(client):
+    """gRPC itself answers bytes it cannot parse with INTERNAL and no message; the
+    server says INVALID_ARGUMENT instead."""
+    raw = dict(request_serializer=lambda b: b, response_deserializer=lambda b: b)
+    get = client.channel.unary_unary("/excite.v1.ExplorationService/GetSession", **raw)
+    for payload in (b"\xff\xff\xff\xff", b"\x0a\x02\xc3\x28"):  # garbage; name not UTF-8
+        with pytest.raises(grpc.RpcError) as error:
+            get(payload, timeout=10)
+        assert error.value.code() == grpc.StatusCode.INVALID_ARGUMENT
+        assert "could not be parsed" in error.value.details()
+
+
+def test_an_unparsable_stream_message_ends_the_stream_unacknowledged(client):
+    """In a stream gRPC ends the server's reading at bytes it cannot parse, as at
+    the client's end: StreamData acknowledges what came before, then ends, and the
+    unparsable message and those after it are neither stored nor acknowledged."""
+    raw = dict(request_serializer=lambda b: b, response_deserializer=lambda b: b)
+    session = client.create_session(linear_config())
+    x, u, x_next, _, _ = linear_data(6, seed=8)
+    good = [excite.pb.AddDataRequest(session=session.name, transitions=session._transitions(
+        x[i:i + 3], u[i:i + 3], x_next[i:i + 3], None, None)).SerializeToString()
+        for i in (0, 3)]
+    stream = client.channel.stream_stream("/excite.v1.ExplorationService/StreamData", **raw)
+    acks = [excite.pb.AddDataAck.FromString(a)
+            for a in stream(iter([good[0], b"\xff\xff\xff", good[1]]), timeout=10)]
+    assert [(a.message_index, a.stored) for a in acks] == [(0, 3)]
+    assert session.refresh().sample_count == 3
+    session.delete()
+
+
 def test_sessions_survive_a_restart(tmp_path):
     first = ServerProcess(tmp_path).start()
     with excite.Client(first.address) as c:

@@ -1,10 +1,12 @@
 // excite-server's transport security over real loopback: bearer tokens (plaintext
 // on loopback and over TLS), TLS with a certificate made by openssl at test time,
-// and mutual TLS. Health checks stay open without a token.
+// and mutual TLS. Health checks stay open without a token or a client certificate.
 
 #include <cstdlib>
+#include <fstream>
 #include <future>
 #include <memory>
+#include <sstream>
 #include <string>
 
 #include "absl/strings/str_cat.h"
@@ -23,10 +25,12 @@ namespace {
 using client::ClientOptions;
 using client::ExciteClient;
 
-// grpc.health.v1.Health/Check (service ""), plaintext; "" on error.
-std::string HealthCheck(const std::string& address) {
-  grpc::GenericStub stub(
-      grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+// grpc.health.v1.Health/Check (service ""), plaintext unless `credentials`
+// are given; "" on error.
+std::string HealthCheck(const std::string& address,
+                        std::shared_ptr<grpc::ChannelCredentials> credentials =
+                            grpc::InsecureChannelCredentials()) {
+  grpc::GenericStub stub(grpc::CreateChannel(address, credentials));
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
   grpc::Slice empty("");
@@ -59,7 +63,8 @@ class SecurityTest : public ::testing::Test {
   }
 
   // A CA, a server certificate for 127.0.0.1 and a client certificate, all
-  // signed by the CA, in the temp dir (never committed).
+  // signed by the CA, and a self-signed "foreign" client certificate, in the temp
+  // dir (never committed).
   void MakeCertificates() {
     const std::string d = tmp_.path();
     const std::string script = absl::StrCat(
@@ -75,7 +80,9 @@ class SecurityTest : public ::testing::Test {
         "openssl req -newkey rsa:2048 -nodes -keyout client.key -out client.csr "
         "-subj /CN=excite-test-client;"
         "openssl x509 -req -in client.csr -CA ca.pem -CAkey ca.key -CAcreateserial "
-        "-out client.pem -days 1");
+        "-out client.pem -days 1;"
+        "openssl req -x509 -newkey rsa:2048 -nodes -keyout foreign.key -out foreign.pem "
+        "-days 1 -subj /CN=excite-test-foreign");
     ASSERT_EQ(std::system(script.c_str()), 0) << "openssl failed, see " << d;
   }
   std::string File(const std::string& name) const { return tmp_.path() + "/" + name; }
@@ -131,7 +138,7 @@ TEST_F(SecurityTest, TlsWorksAndPlaintextClientFails) {
   EXPECT_EQ(ListCode(address, plaintext), absl::StatusCode::kUnavailable);
 }
 
-TEST_F(SecurityTest, MutualTlsRejectsClientWithoutCertificate) {
+TEST_F(SecurityTest, MutualTlsNeedsAClientCertificateForAllButHealthChecks) {
   ASSERT_NO_FATAL_FAILURE(MakeCertificates());
   SecurityOptions security;
   security.tls_cert_file = File("server.pem");
@@ -143,11 +150,24 @@ TEST_F(SecurityTest, MutualTlsRejectsClientWithoutCertificate) {
 
   ClientOptions no_cert;
   no_cert.tls_ca_file = File("ca.pem");
-  EXPECT_EQ(ListCode(address, no_cert), absl::StatusCode::kUnavailable);
+  EXPECT_EQ(ListCode(address, no_cert), absl::StatusCode::kUnauthenticated);
   ClientOptions with_cert = no_cert;
   with_cert.tls_cert_file = File("client.pem");
   with_cert.tls_key_file = File("client.key");
   EXPECT_EQ(ListCode(address, with_cert), absl::StatusCode::kOk);
+  // A certificate the client CA did not sign fails the handshake.
+  ClientOptions foreign_cert = no_cert;
+  foreign_cert.tls_cert_file = File("foreign.pem");
+  foreign_cert.tls_key_file = File("foreign.key");
+  EXPECT_EQ(ListCode(address, foreign_cert), absl::StatusCode::kUnavailable);
+
+  // Probes need no secret: a TLS health check without a client certificate.
+  std::ifstream ca_file(File("ca.pem"));
+  std::stringstream ca;
+  ca << ca_file.rdbuf();
+  grpc::SslCredentialsOptions ssl;
+  ssl.pem_root_certs = ca.str();
+  EXPECT_EQ(HealthCheck(address, grpc::SslCredentials(ssl)), std::string("\x08\x01", 2));
 }
 
 }  // namespace

@@ -530,13 +530,18 @@ class TransitionStream:
 
     def close(self):
         """Sends what is pending, waits for every acknowledgement, ends the stream and
-        returns an AddDataResponse summing them. Raises the stream's error."""
+        returns an AddDataResponse summing them. Raises the stream's error, or
+        RuntimeError if the server ended it before acknowledging everything."""
         with self._lock:
             self._flush()
         self._queue.put(self._END)
         self._reader.join()
         if self._error is not None:
             raise self._error
+        if self._sent:  # ended cleanly early: e.g. at a message it could not parse
+            raise RuntimeError(
+                f"the server ended the stream with {len(self.unacknowledged())} "
+                "transitions unacknowledged (not stored): resend stream.unacknowledged()")
         last = self._last_ack
         self.result = pb.AddDataResponse(
             stored=self._stored, duplicates=self._duplicates,
