@@ -27,6 +27,34 @@ constexpr Eigen::Index kPredictChunkEntries = Eigen::Index{1} << 21;
 // adds its workspace, which grows with the horizon.
 constexpr int64_t kSessionBytes = int64_t{32} << 10;
 
+// The transitions the model takes, one row per sample.
+struct TransitionRows {
+  Eigen::MatrixXd states;
+  Eigen::MatrixXd inputs;
+  Eigen::MatrixXd next_states;
+};
+
+// The samples for which `keep` is true (all if `keep` is null), which must have
+// state_dim `dx` and input_dim `du`, as rows.
+TransitionRows ToRows(const std::vector<store::SampleRecord>& samples, int dx, int du,
+                      const std::vector<bool>* keep = nullptr) {
+  Eigen::Index n = 0;
+  for (size_t i = 0; i < samples.size(); ++i) n += keep == nullptr || (*keep)[i];
+  TransitionRows rows{Eigen::MatrixXd(n, dx), Eigen::MatrixXd(n, du),
+                      Eigen::MatrixXd(n, dx)};
+  Eigen::Index row = 0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    if (keep != nullptr && !(*keep)[i]) continue;
+    const store::SampleRecord& s = samples[i];
+    rows.states.row(row) = Eigen::Map<const Eigen::RowVectorXd>(s.state.data(), dx);
+    rows.inputs.row(row) = Eigen::Map<const Eigen::RowVectorXd>(s.input.data(), du);
+    rows.next_states.row(row) =
+        Eigen::Map<const Eigen::RowVectorXd>(s.next_state.data(), dx);
+    ++row;
+  }
+  return rows;
+}
+
 v1::SolverStatus ToProto(plan::PlanStatus status) {
   switch (status) {
     case plan::PlanStatus::kConverged:
@@ -150,29 +178,23 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
     const int dx = config.state_dim();
     const int du = config.input_dim();
     const Eigen::Index n = static_cast<Eigen::Index>(samples.size());
-    Eigen::MatrixXd states(n, dx), inputs(n, du), next_states(n, dx);
     int64_t last_sequence = -1;
     absl::Status damaged;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const store::SampleRecord& s = samples[static_cast<size_t>(i)];
+    for (const store::SampleRecord& s : samples) {
       last_sequence = std::max(last_sequence, s.sequence);
-      if (static_cast<int>(s.state.size()) != dx ||
-          static_cast<int>(s.input.size()) != du ||
-          static_cast<int>(s.next_state.size()) != dx) {
-        if (damaged.ok()) {
-          damaged = absl::DataLossError(
-              absl::StrCat("stored sample ", s.sequence, " has the wrong shape"));
-        }
-        continue;
+      if (damaged.ok() && (static_cast<int>(s.state.size()) != dx ||
+                           static_cast<int>(s.input.size()) != du ||
+                           static_cast<int>(s.next_state.size()) != dx)) {
+        damaged = absl::DataLossError(
+            absl::StrCat("stored sample ", s.sequence, " has the wrong shape"));
       }
-      states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.state.data(), dx);
-      inputs.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.input.data(), du);
-      next_states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.next_state.data(), dx);
     }
     if (n > 0 && damaged.ok()) {
       // Samples stored by an older version may be ones the model cannot take
       // (e.g. 1e308, before value_ranges.h).
-      if (absl::Status s = model->AddSamples(states, inputs, next_states); !s.ok()) {
+      const TransitionRows rows = ToRows(samples, dx, du);
+      if (absl::Status s = model->AddSamples(rows.states, rows.inputs, rows.next_states);
+          !s.ok()) {
         damaged = absl::DataLossError(absl::StrCat(
             "its stored samples cannot be used by the model: ", s.message()));
       }
@@ -284,15 +306,8 @@ absl::Status Session::CheckUsable() {
 absl::Status Session::CheckModelAccepts(const std::vector<store::SampleRecord>& batch) {
   const int dx = config_.state_dim();
   const int du = config_.input_dim();
-  const Eigen::Index m = static_cast<Eigen::Index>(batch.size());
-  Eigen::MatrixXd states(m, dx), inputs(m, du), next_states(m, dx);
-  for (Eigen::Index i = 0; i < m; ++i) {
-    const store::SampleRecord& r = batch[static_cast<size_t>(i)];
-    states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(r.state.data(), dx);
-    inputs.row(i) = Eigen::Map<const Eigen::RowVectorXd>(r.input.data(), du);
-    next_states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(r.next_state.data(), dx);
-  }
-  absl::Status checked = model_->CheckSamples(states, inputs, next_states);
+  const TransitionRows rows = ToRows(batch, dx, du);
+  absl::Status checked = model_->CheckSamples(rows.states, rows.inputs, rows.next_states);
   if (checked.ok()) return checked;
   return FieldViolationError(
       "transitions",
@@ -347,20 +362,14 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
     }
     const Eigen::Index n = inserted->stored_count;
     if (n > 0) {
-      Eigen::MatrixXd states(n, dx), inputs(n, du), next_states(n, dx);
-      Eigen::Index row = 0;
       for (size_t i = 0; i < batch.size(); ++i) {
-        if (!inserted->stored[i]) continue;
-        states.row(row) = Eigen::Map<const Eigen::RowVectorXd>(batch[i].state.data(), dx);
-        inputs.row(row) = Eigen::Map<const Eigen::RowVectorXd>(batch[i].input.data(), du);
-        next_states.row(row) =
-            Eigen::Map<const Eigen::RowVectorXd>(batch[i].next_state.data(), dx);
-        last_sequence_ = std::max(last_sequence_, batch[i].sequence);
-        ++row;
+        if (inserted->stored[i])
+          last_sequence_ = std::max(last_sequence_, batch[i].sequence);
       }
+      const TransitionRows rows = ToRows(batch, dx, du, &inserted->stored);
       absl::Status added;
       try {
-        added = model_->AddSamples(states, inputs, next_states);
+        added = model_->AddSamples(rows.states, rows.inputs, rows.next_states);
       } catch (const std::exception& e) {
         added = InternalFromException("adding samples to the GP", e);
       }
@@ -436,16 +445,17 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
                      " failed_starts=", summary->failed_starts,
                      " ms=", summary->wall_time_ms, summary->stopped ? " stopped" : ""));
   }
-  v1::Session saved;  // store_conversion.h's format
-  saved.set_sample_count(sample_count_ - model_->samples_since_fit());
+  google::protobuf::RepeatedPtrField<v1::Hyperparameters> fitted;
   {
     absl::MutexLock lock(&info_mu_);
-    for (const v1::OutputModel& output : info_.outputs) *saved.add_outputs() = output;
+    for (const v1::OutputModel& output : info_.outputs) {
+      *fitted.Add() = output.hyperparameters();
+    }
   }
+  const std::string saved =
+      EncodeSavedHyperparameters(fitted, sample_count_ - model_->samples_since_fit());
   const Clock::time_point write_start = Clock::now();
-  if (absl::Status s =
-          store_->SaveModelState(id_, saved.SerializeAsString(), model_version_);
-      !s.ok()) {
+  if (absl::Status s = store_->SaveModelState(id_, saved, model_version_); !s.ok()) {
     Log(LogLevel::kWarning,
         absl::StrCat("saving the hyperparameters of ", name_, " failed: ", s.ToString()));
   } else if (metrics_ != nullptr) {
