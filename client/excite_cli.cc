@@ -21,8 +21,6 @@
 #include <vector>
 
 #include "absl/flags/flag.h"
-#include "absl/flags/parse.h"
-#include "absl/flags/usage.h"
 #include "absl/status/status.h"
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
@@ -33,6 +31,7 @@
 #include "absl/strings/strip.h"
 #include "client/connection_flags.h"
 #include "client/excite_client.h"
+#include "common/usage.h"
 #include "google/protobuf/text_format.h"
 #include "server/service/config_text.h"
 
@@ -251,8 +250,7 @@ int Import(excite::client::ExciteClient& client, const std::vector<std::string>&
 }  // namespace
 
 int main(int argc, char** argv) {
-  absl::SetProgramUsageMessage(kUsage);
-  std::vector<char*> positional = absl::ParseCommandLine(argc, argv);
+  std::vector<char*> positional = excite::ParseFlags(argc, argv, kUsage);
   std::vector<std::string> args(positional.begin() + 1, positional.end());
   if (args.empty()) return UsageError("missing command");
 

@@ -21,11 +21,10 @@
 #include <vector>
 
 #include "absl/flags/flag.h"
-#include "absl/flags/parse.h"
-#include "absl/flags/usage.h"
 #include "absl/status/status.h"
 #include "client/connection_flags.h"
 #include "client/excite_client.h"
+#include "common/usage.h"
 #include "google/protobuf/io/coded_stream.h"
 #include "google/protobuf/io/zero_copy_stream_impl_lite.h"
 #include "google/protobuf/wire_format_lite.h"
@@ -166,11 +165,11 @@ int Run() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  absl::SetProgramUsageMessage(
+  std::vector<char*> rest = excite::ParseFlags(
+      argc, argv,
       "Exit 0 iff the server's grpc.health.v1 status is SERVING.\n"
       "  excite-health [--server=HOST:PORT] [--service=NAME] [--timeout_s=S] "
       "[--wait_s=W] [--tls_ca=PEM [--tls_client_cert=PEM --tls_client_key=PEM]]");
-  std::vector<char*> rest = absl::ParseCommandLine(argc, argv);
   if (rest.size() > 1) {
     std::fprintf(stderr, "excite-health: unexpected argument %s\n", rest[1]);
     return 2;

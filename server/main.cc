@@ -16,10 +16,9 @@
 #include <utility>
 
 #include "absl/flags/flag.h"
-#include "absl/flags/parse.h"
-#include "absl/flags/usage.h"
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "common/usage.h"
 #include "server/service/auth.h"
 #include "server/service/excite_server.h"
 #include "server/service/logging.h"
@@ -56,9 +55,9 @@ using excite::service::Log;
 using excite::service::LogLevel;
 
 int Run(int argc, char** argv) {
-  absl::SetProgramUsageMessage(
+  excite::ParseFlags(
+      argc, argv,
       "excite-server [--listen=HOST:PORT] [--data_dir=DIR] [--log_level=LEVEL]");
-  absl::ParseCommandLine(argc, argv);
 
   absl::StatusOr<LogLevel> level =
       excite::service::ParseLogLevel(absl::GetFlag(FLAGS_log_level));

@@ -11,11 +11,10 @@
 #include <string>
 
 #include "absl/flags/flag.h"
-#include "absl/flags/parse.h"
-#include "absl/flags/usage.h"
 #include "absl/strings/str_format.h"
 #include "client/connection_flags.h"
 #include "client/excite_client.h"
+#include "common/usage.h"
 #include "sim/exploration_run.h"
 #include "sim/plants/plant_factory.h"
 #include "sim/run_summary.h"
@@ -129,11 +128,11 @@ int Main() {
 }  // namespace excite::sim
 
 int main(int argc, char** argv) {
-  absl::SetProgramUsageMessage(
+  excite::ParseFlags(
+      argc, argv,
       "Runs one exploration of a simulated plant against excite-server.\n"
       "  excite-sim --config=sim/configs/pendulum.textproto [--server=HOST:PORT]\n"
       "             [--strategy=NAME] [--samples=N] [--seed=S] "
       "[--summary=FILE]");
-  absl::ParseCommandLine(argc, argv);
   return excite::sim::Main();
 }

@@ -273,5 +273,29 @@ TEST(EndToEndNoServerTest, SimRejectsUnknownStrategy) {
   EXPECT_NE(ReadFileOrEmpty(work.path() + "/sim.err").find("bogus"), std::string::npos);
 }
 
+// `--help` of each program lists that program's own flags and exits 0 (it used
+// to print "No flags matched." and exit 1).
+TEST(EndToEndNoServerTest, HelpListsEachProgramsFlagsAndExitsZero) {
+  TempDir work("excite-e2e-help");
+  const std::vector<std::pair<std::string, std::vector<std::string>>> programs = {
+      {EXCITE_SERVER_PATH, {"--listen", "--data_dir", "--memory_budget_mb"}},
+      {EXCITE_SIM_PATH, {"--config", "--strategy", "--server", "--tls_ca"}},
+      {EXCITE_CLI_PATH, {"--server", "--config", "--timeout_s", "sessions list"}}};
+  for (const auto& [path, expected] : programs) {
+    auto program = Subprocess::Start({path, "--help"}, work.path() + "/help.out",
+                                     work.path() + "/help.err");
+    ASSERT_TRUE(program.ok()) << program.status();
+    absl::StatusOr<int> code = (*program)->Wait(seconds(30));
+    ASSERT_TRUE(code.ok()) << code.status();
+    EXPECT_EQ(*code, 0) << path;
+    const std::string out = ReadFileOrEmpty(work.path() + "/help.out");
+    for (const std::string& text : expected) {
+      EXPECT_NE(out.find(text), std::string::npos) << path << " --help lacks " << text;
+    }
+    EXPECT_EQ(out.find("No flags matched"), std::string::npos) << out;
+    EXPECT_EQ(out.find("--flagfile"), std::string::npos) << "Abseil's own flags: " << out;
+  }
+}
+
 }  // namespace
 }  // namespace excite::testing
