@@ -6,22 +6,35 @@
 //   excite sessions delete NAME
 //   excite predict --session NAME --z 'x1,..,u1,..[,x1,..]' [--include_noise]
 //   excite plan --session NAME --state 'x1,x2,..'
+//   excite add NAME [FILE]
 //   excite export NAME FILE
 //   excite import FILE [--session_id ID]
 //
-// export writes the session (config, samples, last hyperparameters) to FILE as a
-// binary SessionArchive; import creates a session from such a file (under its
-// exported id unless --session_id is given).
+// add streams transitions from a CSV file (or stdin) into a session, one row per
+// transition: x (state_dim numbers), u (input_dim), x_next (state_dim) and
+// optionally a sequence number; without one, rows are numbered after the
+// session's last sequence (so they are always added; with one, a row whose number
+// is stored is not stored again, and a rerun is safe). export writes the session (config,
+// samples, last hyperparameters) to FILE as a binary SessionArchive; import creates a
+// session from such a file (under its exported id unless --session_id is given).
+// --output=json prints each result as one JSON document (protobuf's JSON mapping).
 //
 // NAME is "sessions/{id}" or just the id. Exit status: 0 on success, 1 when the
-// server returns an error (printed with its gRPC code name), 2 on a usage error.
+// server returns an error (printed with its gRPC code name) or cannot be reached,
+// or on a local error (a file that cannot be read or written: printed as such),
+// 2 on a usage error.
 
+#include <algorithm>
 #include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "absl/flags/flag.h"
 #include "absl/status/status.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -33,6 +46,7 @@
 #include "client/excite_client.h"
 #include "common/usage.h"
 #include "google/protobuf/text_format.h"
+#include "google/protobuf/util/json_util.h"
 #include "server/service/config_text.h"
 
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "excite-server address HOST:PORT.");
@@ -48,6 +62,7 @@ ABSL_FLAG(std::string, session_id, "",
 ABSL_FLAG(int, timeout_s, 60, "Deadline of each call in seconds.");
 ABSL_FLAG(int, max_message_mb, 64,
           "Largest message sent or received, in MiB (export/import of big sessions).");
+ABSL_FLAG(std::string, output, "text", "text (for people) or json (one JSON document).");
 
 namespace {
 
@@ -59,20 +74,52 @@ constexpr char kUsage[] =
     "  sessions delete NAME\n"
     "  predict --session NAME --z 'v1,v2,...' [--include_noise]\n"
     "  plan --session NAME --state 'x1,x2,...'\n"
+    "  add NAME [FILE]   (CSV rows x,u,x_next[,sequence]; stdin without FILE)\n"
     "  export NAME FILE\n"
     "  import FILE [--session_id ID]\n"
-    "NAME is sessions/{id} or {id}.";
+    "NAME is sessions/{id} or {id}. --output=json prints JSON.";
 
 int UsageError(const std::string& message) {
   std::fprintf(stderr, "excite: %s\nusage:\n%s\n", message.c_str(), kUsage);
   return 2;
 }
 
+// An error of the server, or of reaching it.
 int Fail(const absl::Status& status) {
-  std::fprintf(stderr, "excite: %s: %s\n",
-               absl::StatusCodeToString(status.code()).c_str(),
-               std::string(status.message()).c_str());
+  const std::string message(status.message());
+  if (status.code() == absl::StatusCode::kUnavailable) {
+    std::fprintf(stderr,
+                 "excite: cannot reach excite-server at %s (is it running, and are "
+                 "--server and the TLS flags right?): %s\n",
+                 absl::GetFlag(FLAGS_server).c_str(), message.c_str());
+  } else if (status.code() == absl::StatusCode::kDeadlineExceeded) {
+    std::fprintf(stderr, "excite: no answer within --timeout_s=%d s: %s\n",
+                 absl::GetFlag(FLAGS_timeout_s), message.c_str());
+  } else {
+    std::fprintf(stderr, "excite: %s: %s\n",
+                 absl::StatusCodeToString(status.code()).c_str(), message.c_str());
+  }
   return 1;
+}
+
+// An error here, before or after talking to the server (a file, an argument).
+int LocalFail(const absl::Status& status) {
+  std::fprintf(stderr, "excite: %s\n", std::string(status.message()).c_str());
+  return 1;
+}
+
+bool Json() { return absl::GetFlag(FLAGS_output) == "json"; }
+
+// `message` as one line of JSON (protobuf's mapping, field names as in the proto).
+void PrintJson(const google::protobuf::Message& message) {
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  options.always_print_primitive_fields = true;
+  if (!google::protobuf::util::MessageToJsonString(message, &json, options).ok()) {
+    json = "{}";
+  }
+  std::printf("%s\n", json.c_str());
 }
 
 std::string FullName(const std::string& name) {
@@ -106,10 +153,16 @@ std::string StrategyName(excite::v1::Strategy strategy) {
 int ListSessions(excite::client::ExciteClient& client) {
   std::string token;
   int count = 0;
+  excite::v1::ListSessionsResponse all;  // every page, for --output=json
   do {
     absl::StatusOr<excite::v1::ListSessionsResponse> page =
         client.ListSessions(absl::GetFlag(FLAGS_page_size), token);
     if (!page.ok()) return Fail(page.status());
+    token = page->next_page_token();
+    if (Json()) {
+      for (const excite::v1::Session& s : page->sessions()) *all.add_sessions() = s;
+      continue;
+    }
     for (const excite::v1::Session& s : page->sessions()) {
       std::printf(
           "%-40s state_dim=%d input_dim=%d strategy=%s horizon=%d samples=%lld "
@@ -120,13 +173,20 @@ int ListSessions(excite::client::ExciteClient& client) {
           static_cast<long long>(s.model_version()));
       ++count;
     }
-    token = page->next_page_token();
   } while (!token.empty());
-  if (count == 0) std::printf("no sessions\n");
+  if (Json()) {
+    PrintJson(all);
+  } else if (count == 0) {
+    std::printf("no sessions\n");
+  }
   return 0;
 }
 
 int PrintSession(const excite::v1::Session& session) {
+  if (Json()) {
+    PrintJson(session);
+    return 0;
+  }
   std::string text;
   google::protobuf::TextFormat::PrintToString(session, &text);
   std::printf("%s", text.c_str());
@@ -149,7 +209,11 @@ int Sessions(excite::client::ExciteClient& client, const std::vector<std::string
       return PrintSession(*session);
     }
     if (absl::Status s = client.DeleteSession(name); !s.ok()) return Fail(s);
-    std::printf("deleted %s\n", name.c_str());
+    if (Json()) {
+      std::printf("{\"deleted\":\"%s\"}\n", name.c_str());
+    } else {
+      std::printf("deleted %s\n", name.c_str());
+    }
     return 0;
   }
   if (verb == "create") {
@@ -158,11 +222,11 @@ int Sessions(excite::client::ExciteClient& client, const std::vector<std::string
       return UsageError("sessions create: --config");
     absl::StatusOr<excite::v1::SessionConfig> config =
         excite::service::LoadSessionConfigFile(absl::GetFlag(FLAGS_config));
-    if (!config.ok()) return Fail(config.status());
+    if (!config.ok()) return LocalFail(config.status());
     absl::StatusOr<excite::v1::Session> session =
         client.CreateSession(*config, absl::GetFlag(FLAGS_id));
     if (!session.ok()) return Fail(session.status());
-    std::printf("created %s\n", session->name().c_str());
+    if (!Json()) std::printf("created %s\n", session->name().c_str());
     return PrintSession(*session);
   }
   return UsageError(absl::StrCat("sessions: unknown sub-command \"", verb, "\""));
@@ -180,6 +244,10 @@ int Predict(excite::client::ExciteClient& client) {
   request.set_include_noise(absl::GetFlag(FLAGS_include_noise));
   absl::StatusOr<excite::v1::PredictResponse> response = client.Predict(request);
   if (!response.ok()) return Fail(response.status());
+  if (Json()) {
+    PrintJson(*response);
+    return 0;
+  }
   absl::StatusOr<excite::v1::Session> session = client.GetSession(request.session());
   const int dx = session.ok() ? session->config().state_dim() : response->mean_size();
   const int points = dx > 0 ? response->mean_size() / dx : 0;
@@ -201,6 +269,10 @@ int Plan(excite::client::ExciteClient& client) {
   absl::StatusOr<excite::v1::PlanInputsResponse> plan =
       client.PlanInputs(FullName(absl::GetFlag(FLAGS_session)), state);
   if (!plan.ok()) return Fail(plan.status());
+  if (Json()) {
+    PrintJson(*plan);
+    return 0;
+  }
   const int horizon = plan->horizon();
   const int du = horizon > 0 ? plan->inputs_size() / horizon : 0;
   const int dx = horizon > 0 ? plan->predicted_states_size() / horizon : 0;
@@ -227,7 +299,12 @@ int Export(excite::client::ExciteClient& client, const std::vector<std::string>&
   if (!archive.ok()) return Fail(archive.status());
   if (absl::Status s = excite::client::WriteSessionArchiveFile(args[2], *archive);
       !s.ok()) {
-    return Fail(s);
+    return LocalFail(s);
+  }
+  if (Json()) {
+    std::printf("{\"exported\":\"%s\",\"samples\":%d,\"file\":\"%s\"}\n", name.c_str(),
+                archive->samples_size(), absl::CEscape(args[2]).c_str());
+    return 0;
   }
   std::printf("exported %s (%d samples, %d hyperparameter sets) to %s\n", name.c_str(),
               archive->samples_size(), archive->hyperparameters_size(), args[2].c_str());
@@ -238,12 +315,112 @@ int Import(excite::client::ExciteClient& client, const std::vector<std::string>&
   if (args.size() != 2) return UsageError("import FILE [--session_id ID]");
   absl::StatusOr<excite::v1::SessionArchive> archive =
       excite::client::ReadSessionArchiveFile(args[1]);
-  if (!archive.ok()) return Fail(archive.status());
+  if (!archive.ok()) return LocalFail(archive.status());
   absl::StatusOr<excite::v1::Session> session =
       client.ImportSession(*archive, absl::GetFlag(FLAGS_session_id));
   if (!session.ok()) return Fail(session.status());
+  if (Json()) return PrintSession(*session);
   std::printf("imported %s (%lld samples) from %s\n", session->name().c_str(),
               static_cast<long long>(session->sample_count()), args[1].c_str());
+  return 0;
+}
+
+// The transitions of a CSV text: one row x, u, x_next [, sequence] each; blank
+// lines, '#' comments and a non-numeric first row (a header) are skipped. Rows
+// without a sequence number are numbered from `next_sequence`.
+absl::StatusOr<std::vector<excite::v1::Transition>> ParseTransitionsCsv(
+    const std::string& text, int dx, int du, int64_t next_sequence) {
+  const int columns = 2 * dx + du;
+  std::vector<excite::v1::Transition> transitions;
+  int line_number = 0;
+  for (absl::string_view line : absl::StrSplit(text, '\n')) {
+    ++line_number;
+    line = absl::StripAsciiWhitespace(line);
+    if (line.empty() || absl::StartsWith(line, "#")) continue;
+    std::vector<double> values;
+    for (absl::string_view field : absl::StrSplit(line, ',')) {
+      double v = 0.0;
+      if (!absl::SimpleAtod(absl::StripAsciiWhitespace(field), &v)) {
+        values.clear();
+        break;
+      }
+      values.push_back(v);
+    }
+    if (values.empty() && transitions.empty() && line_number == 1) continue;  // header
+    if (values.size() != static_cast<size_t>(columns) &&
+        values.size() != static_cast<size_t>(columns + 1)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "line ", line_number, ": want ", columns, " numbers (x: ", dx, ", u: ", du,
+          ", x_next: ", dx, ") and optionally a sequence number, found \"", line, "\""));
+    }
+    excite::v1::Transition t;
+    t.mutable_state()->Add(values.begin(), values.begin() + dx);
+    t.mutable_input()->Add(values.begin() + dx, values.begin() + dx + du);
+    t.mutable_next_state()->Add(values.begin() + dx + du, values.begin() + columns);
+    t.set_sequence(values.size() > static_cast<size_t>(columns)
+                       ? static_cast<int64_t>(values.back())
+                       : next_sequence++);
+    transitions.push_back(std::move(t));
+  }
+  return transitions;
+}
+
+int Add(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
+  if (args.size() != 2 && args.size() != 3) return UsageError("add NAME [FILE]");
+  const std::string name = FullName(args[1]);
+  std::string text;
+  if (args.size() == 3 && args[2] != "-") {
+    std::ifstream in(args[2]);
+    if (!in) return LocalFail(absl::NotFoundError(absl::StrCat("cannot read ", args[2])));
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    text = buffer.str();
+  } else {
+    std::stringstream buffer;
+    buffer << std::cin.rdbuf();
+    text = buffer.str();
+  }
+  absl::StatusOr<excite::v1::Session> session = client.GetSession(name);
+  if (!session.ok()) return Fail(session.status());
+  absl::StatusOr<std::vector<excite::v1::Transition>> transitions =
+      ParseTransitionsCsv(text, session->config().state_dim(),
+                          session->config().input_dim(), session->last_sequence() + 1);
+  if (!transitions.ok()) {
+    return LocalFail(absl::InvalidArgumentError(absl::StrCat(
+        args.size() == 3 ? args[2] : "stdin", ": ", transitions.status().message())));
+  }
+  // One acknowledged message per 256 rows: on an error, what was acknowledged is
+  // stored. (Rerunning a file stores each row once only if it numbers its rows.)
+  constexpr size_t kRowsPerMessage = 256;
+  std::unique_ptr<excite::client::DataStream> stream = client.OpenDataStream(name);
+  excite::v1::AddDataResponse total;
+  for (size_t first = 0; first < transitions->size(); first += kRowsPerMessage) {
+    const size_t end = std::min(first + kRowsPerMessage, transitions->size());
+    absl::StatusOr<excite::v1::AddDataAck> ack =
+        stream->Send({transitions->begin() + static_cast<std::ptrdiff_t>(first),
+                      transitions->begin() + static_cast<std::ptrdiff_t>(end)});
+    if (!ack.ok()) {
+      if (first > 0) {
+        std::fprintf(stderr, "excite: rows 1-%zu were stored (%lld new)\n", first,
+                     static_cast<long long>(total.stored()));
+      }
+      return Fail(ack.status());
+    }
+    total.set_stored(total.stored() + ack->stored());
+    total.set_duplicates(total.duplicates() + ack->duplicates());
+    total.set_sample_count(ack->sample_count());
+    total.set_model_version(ack->model_version());
+  }
+  if (absl::Status s = stream->Close(); !s.ok()) return Fail(s);
+  if (transitions->empty()) total.set_sample_count(session->sample_count());
+  if (Json()) {
+    PrintJson(total);
+  } else {
+    std::printf("added %zu rows to %s: %lld stored, %lld already there; %lld samples\n",
+                transitions->size(), name.c_str(), static_cast<long long>(total.stored()),
+                static_cast<long long>(total.duplicates()),
+                static_cast<long long>(total.sample_count()));
+  }
   return 0;
 }
 
@@ -263,6 +440,11 @@ int main(int argc, char** argv) {
   if (options.max_message_mb < 1 || options.max_message_mb > 2047) {
     return UsageError("--max_message_mb must be in [1, 2047]");
   }
+  if (const std::string output = absl::GetFlag(FLAGS_output);
+      output != "text" && output != "json") {
+    return UsageError(
+        absl::StrCat("--output must be text or json, not \"", output, "\""));
+  }
   if (absl::Status s = excite::client::ApplyConnectionFlags(&options); !s.ok()) {
     return UsageError(std::string(s.message()));
   }
@@ -273,6 +455,7 @@ int main(int argc, char** argv) {
   if (command == "sessions") return Sessions(*client, args);
   if (command == "export") return Export(*client, args);
   if (command == "import") return Import(*client, args);
+  if (command == "add") return Add(*client, args);
   if (args.size() != 1) return UsageError(absl::StrCat(command, " takes no argument"));
   if (command == "predict") return Predict(*client);
   if (command == "plan") return Plan(*client);

@@ -7,6 +7,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "excite/v1/sim_config.pb.h"
 #include "google/protobuf/io/tokenizer.h"
 #include "google/protobuf/text_format.h"
 
@@ -47,11 +48,16 @@ absl::StatusOr<v1::SessionConfig> LoadSessionConfigFile(const std::string& path)
   std::stringstream buffer;
   buffer << in.rdbuf();
   absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(buffer.str());
-  if (!config.ok()) {
-    return absl::Status(config.status().code(),
-                        absl::StrCat(path, ": ", config.status().message()));
-  }
-  return config;
+  if (config.ok()) return config;
+  // The plants' files (sim/configs) hold their session's config as `session`.
+  v1::SimConfig sim;
+  CollectErrors sim_errors;
+  google::protobuf::TextFormat::Parser parser;
+  parser.RecordErrorsTo(&sim_errors);
+  if (parser.ParseFromString(buffer.str(), &sim)) return sim.session();
+  return absl::InvalidArgumentError(absl::StrCat(
+      path, ": neither a SessionConfig nor a SimConfig: ", config.status().message(),
+      "; SimConfig text format: ", sim_errors.Joined()));
 }
 
 }  // namespace excite::service

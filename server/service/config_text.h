@@ -14,7 +14,9 @@ namespace excite::service {
 // ValidateSessionConfig (config_validation.h).
 absl::StatusOr<v1::SessionConfig> ParseSessionConfigText(absl::string_view text);
 
-// Reads and parses a SessionConfig textproto file. NOT_FOUND if it cannot be read.
+// Reads and parses a textproto file holding a SessionConfig, or a SimConfig
+// (sim/configs), whose `session` it returns. NOT_FOUND if it cannot be read,
+// INVALID_ARGUMENT with both parsers' errors if it is neither.
 absl::StatusOr<v1::SessionConfig> LoadSessionConfigFile(const std::string& path);
 
 }  // namespace excite::service

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "tests/e2e/subprocess.h"
 
 namespace excite::testing {
@@ -242,6 +244,76 @@ TEST_F(EndToEndTest, CliExportsAndImportsASession) {
   EXPECT_EQ(RunCli({"import", work_.path() + "/no-such-file"}, &out, &err), 1);
   EXPECT_NE(err.find("cannot read"), std::string::npos) << err;
   EXPECT_EQ(RunCli({"export", "cli-src"}, &out, &err), 2);  // usage
+  StopServer();
+}
+
+// A first workflow with the CLI alone: create a session from a plant's config
+// file, add data from CSV, predict and plan, JSON output, and errors in words.
+TEST_F(EndToEndTest, CliDoesAFirstWorkflowAlone) {
+  std::string out, err;
+  ASSERT_EQ(
+      RunCli({"sessions", "create", "--config=" EXCITE_PENDULUM_CONFIG, "--id=first"},
+             &out, &err),
+      0)
+      << err;  // a SimConfig file: its `session`
+  EXPECT_NE(out.find("created sessions/first"), std::string::npos) << out;
+  EXPECT_EQ(RunCli({"predict", "--session=first", "--z=0.1,0.2,0.3"}, &out, &err), 1);
+  EXPECT_NE(err.find("FAILED_PRECONDITION"), std::string::npos) << err;
+
+  // 40 transitions of a slow linear system, with a header and a comment.
+  std::string csv = "theta,omega,u,theta_next,omega_next\n# generated\n";
+  for (int i = 0; i < 40; ++i) {
+    const double x0 = std::sin(0.3 * i), x1 = std::cos(0.7 * i), u = std::sin(1.1 * i);
+    csv += absl::StrCat(x0, ",", x1, ",", u, ",", x0 + 0.05 * x1, ",",
+                        x1 + 0.05 * (u - x0), "\n");
+  }
+  const std::string file = work_.path() + "/data.csv";
+  std::ofstream(file) << csv;
+  ASSERT_EQ(RunCli({"add", "first", file}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("added 40 rows to sessions/first: 40 stored, 0 already there; 40 "
+                     "samples"),
+            std::string::npos)
+      << out;
+  // The same rows with their sequence numbers (0-39, as numbered above): stored
+  // already, so nothing is stored twice.
+  std::string numbered;
+  int row = -1;
+  for (absl::string_view line : absl::StrSplit(csv, '\n', absl::SkipEmpty())) {
+    if (++row >= 2) numbered += absl::StrCat(line, ",", row - 2, "\n");
+  }
+  std::ofstream(work_.path() + "/numbered.csv") << numbered;
+  ASSERT_EQ(RunCli({"--output=json", "add", "first", work_.path() + "/numbered.csv"},
+                   &out, &err),
+            0)
+      << err;
+  EXPECT_NE(out.find("\"stored\":\"0\",\"duplicates\":\"40\""), std::string::npos) << out;
+
+  ASSERT_EQ(RunCli({"--output=json", "predict", "--session=first", "--z=0.1,0.2,0.3"},
+                   &out, &err),
+            0)
+      << err;
+  EXPECT_EQ(out.rfind("{\"mean\":[", 0), 0u) << out;
+  ASSERT_EQ(RunCli({"--output=json", "sessions", "list"}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("\"name\":\"sessions/first\""), std::string::npos) << out;
+  EXPECT_NE(out.find("\"sample_count\":\"40\""), std::string::npos) << out;
+  ASSERT_EQ(RunCli({"plan", "--session=first", "--state=0,0"}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("horizon"), std::string::npos) << out;
+
+  // Local errors are said as such, not as gRPC codes.
+  EXPECT_EQ(RunCli({"sessions", "create", "--config=/no/such.textproto"}, &out, &err), 1);
+  EXPECT_NE(err.find("excite: cannot read /no/such.textproto"), std::string::npos) << err;
+  std::ofstream(work_.path() + "/bad.csv") << "0,0,0,0,0\n1,2,3\n";
+  EXPECT_EQ(RunCli({"add", "first", work_.path() + "/bad.csv"}, &out, &err), 1);
+  EXPECT_NE(err.find("bad.csv: line 2: want 5 numbers"), std::string::npos) << err;
+  EXPECT_EQ(RunCli({"export", "first", "/no/such/dir/x.excite"}, &out, &err), 1);
+  EXPECT_EQ(err.find("INVALID_ARGUMENT"), std::string::npos) << err;
+  EXPECT_EQ(err.find("NOT_FOUND"), std::string::npos) << err;
+  // A server that is not there, in words.
+  EXPECT_EQ(
+      RunCli({"--server=127.0.0.1:1", "--timeout_s=5", "sessions", "list"}, &out, &err),
+      1);
+  EXPECT_NE(err.find("cannot reach excite-server at 127.0.0.1:1"), std::string::npos)
+      << err;
   StopServer();
 }
 
