@@ -3,8 +3,10 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "server/gp/hyperparameter_fit.h"
 #include "server/plan/planner.h"
 #include "server/service/field_violation.h"
@@ -23,6 +25,18 @@ std::string Indexed(absl::string_view path, absl::string_view name, int index) {
 
 absl::Status Invalid(absl::string_view field, absl::string_view what) {
   return FieldViolationError(field, what);
+}
+
+// "STRATEGY_REC, STRATEGY_PA, ...": the strategies a config may name.
+std::string ValidStrategyNames() {
+  std::vector<std::string> names;
+  const google::protobuf::EnumDescriptor* strategies = v1::Strategy_descriptor();
+  for (int i = 0; i < strategies->value_count(); ++i) {
+    if (strategies->value(i)->number() != v1::STRATEGY_UNSPECIFIED) {
+      names.push_back(strategies->value(i)->name());
+    }
+  }
+  return absl::StrJoin(names, ", ");
 }
 
 // An int field with a default for 0 and an inclusive valid range.
@@ -397,48 +411,45 @@ absl::Status ValidateHyperparameters(absl::string_view path,
 }
 
 absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view path) {
+  // Every independent problem is reported (one field violation each); checks that
+  // count entries per dimension run only with valid dimensions.
+  Violations problems;
+  bool dims_ok = true;
   if (config->state_dim() < 1 || config->state_dim() > kMaxStateDim) {
-    return Invalid(
+    problems.Add(Invalid(
         Field(path, "state_dim"),
-        absl::StrCat("must be in [1, ", kMaxStateDim, "], got ", config->state_dim()));
+        absl::StrCat("must be in [1, ", kMaxStateDim, "], got ", config->state_dim())));
+    dims_ok = false;
   }
   if (config->input_dim() < 1 || config->input_dim() > kMaxInputDim) {
-    return Invalid(
+    problems.Add(Invalid(
         Field(path, "input_dim"),
-        absl::StrCat("must be in [1, ", kMaxInputDim, "], got ", config->input_dim()));
+        absl::StrCat("must be in [1, ", kMaxInputDim, "], got ", config->input_dim())));
+    dims_ok = false;
   }
-  if (config->input_bounds_size() != config->input_dim()) {
-    return Invalid(Field(path, "input_bounds"),
-                   absl::StrCat("must have input_dim (", config->input_dim(),
-                                ") entries, got ", config->input_bounds_size()));
+  if (dims_ok && config->input_bounds_size() != config->input_dim()) {
+    problems.Add(Invalid(Field(path, "input_bounds"),
+                         absl::StrCat("must have input_dim (", config->input_dim(),
+                                      ") entries, got ", config->input_bounds_size())));
   }
   for (int i = 0; i < config->input_bounds_size(); ++i) {
-    if (absl::Status s =
-            CheckDataInterval(Indexed(path, "input_bounds", i), config->input_bounds(i));
-        !s.ok()) {
-      return s;
-    }
+    problems.Add(
+        CheckDataInterval(Indexed(path, "input_bounds", i), config->input_bounds(i)));
   }
-  if (config->state_bounds_size() != 0 &&
+  if (dims_ok && config->state_bounds_size() != 0 &&
       config->state_bounds_size() != config->state_dim()) {
-    return Invalid(Field(path, "state_bounds"),
-                   absl::StrCat("must have 0 or state_dim (", config->state_dim(),
-                                ") entries, got ", config->state_bounds_size()));
+    problems.Add(Invalid(Field(path, "state_bounds"),
+                         absl::StrCat("must have 0 or state_dim (", config->state_dim(),
+                                      ") entries, got ", config->state_bounds_size())));
   }
   for (int i = 0; i < config->state_bounds_size(); ++i) {
-    if (absl::Status s =
-            CheckDataInterval(Indexed(path, "state_bounds", i), config->state_bounds(i));
-        !s.ok()) {
-      return s;
-    }
+    problems.Add(
+        CheckDataInterval(Indexed(path, "state_bounds", i), config->state_bounds(i)));
   }
 
   const std::string npath = Field(path, "noise");
-  if (absl::Status s = CheckPositive(Field(npath, "variance"), config->noise().variance(),
-                                     kMinNoiseVariance, kMaxNoiseVariance);
-      !s.ok()) {
-    return s;
-  }
+  problems.Add(CheckPositive(Field(npath, "variance"), config->noise().variance(),
+                             kMinNoiseVariance, kMaxNoiseVariance));
   // Unset kernel.fit: fitted unless fixed hyperparameters are given (a minimal
   // config works; a config with `fixed` means them). Filled in before the noise
   // check, which depends on it.
@@ -446,65 +457,67 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
     config->mutable_kernel()->set_fit(config->kernel().fixed_size() == 0);
   }
   if (config->noise().fit() && !config->kernel().fit()) {
-    return Invalid(Field(npath, "fit"),
-                   "the noise variance can only be fitted when kernel.fit is true (with "
-                   "kernel.fit false, kernel.fixed[i].noise_variance is used)");
+    problems.Add(
+        Invalid(Field(npath, "fit"),
+                "the noise variance can only be fitted when kernel.fit is true (with "
+                "kernel.fit false, kernel.fixed[i].noise_variance is used)"));
   }
-  if (absl::Status s = ValidateKernel(path, *config, config->mutable_kernel()); !s.ok()) {
-    return s;
-  }
+  if (dims_ok) problems.Add(ValidateKernel(path, *config, config->mutable_kernel()));
 
   if (config->target() == v1::TARGET_UNSPECIFIED) config->set_target(v1::TARGET_DELTA);
   if (config->target() != v1::TARGET_DELTA && config->target() != v1::TARGET_NEXT) {
-    return Invalid(Field(path, "target"),
-                   absl::StrCat("unknown value ", static_cast<int>(config->target())));
+    problems.Add(
+        Invalid(Field(path, "target"),
+                absl::StrCat("unknown value ", static_cast<int>(config->target()),
+                             "; valid: TARGET_DELTA, TARGET_NEXT")));
   }
   if (config->strategy() == v1::STRATEGY_UNSPECIFIED) {
     config->set_strategy(v1::STRATEGY_REC);
   }
   if (!v1::Strategy_IsValid(config->strategy())) {
-    return Invalid(Field(path, "strategy"),
-                   absl::StrCat("unknown value ", static_cast<int>(config->strategy())));
+    problems.Add(
+        Invalid(Field(path, "strategy"),
+                absl::StrCat("unknown value ", static_cast<int>(config->strategy()),
+                             "; valid: ", ValidStrategyNames())));
   }
   if (config->strategy() == v1::STRATEGY_GREEDY) {
     if (config->horizon() < 0 || config->horizon() > kMaxHorizon) {
-      return Invalid(Field(path, "horizon"), absl::StrCat("must be in [1, ", kMaxHorizon,
-                                                          "], got ", config->horizon()));
+      problems.Add(Invalid(
+          Field(path, "horizon"),
+          absl::StrCat("must be in [1, ", kMaxHorizon, "], got ", config->horizon())));
+    } else {
+      config->set_horizon(1);  // greedy is rec with M = 1
     }
-    config->set_horizon(1);  // greedy is rec with M = 1
   } else {
     int32_t horizon = config->horizon();
-    if (absl::Status s = IntWithDefault(Field(path, "horizon"), &horizon,
-                                        plan::PlanOptions().horizon, 1, kMaxHorizon);
-        !s.ok()) {
-      return s;
-    }
-    config->set_horizon(horizon);
+    const absl::Status s = IntWithDefault(Field(path, "horizon"), &horizon,
+                                          plan::PlanOptions().horizon, 1, kMaxHorizon);
+    problems.Add(s);
+    if (s.ok()) config->set_horizon(horizon);
   }
 
   const std::string rpath = Field(path, "refit");
   v1::RefitPolicy* refit = config->mutable_refit();
   int32_t every = refit->every_samples();
-  if (absl::Status s = IntWithDefault(Field(rpath, "every_samples"), &every,
-                                      kDefaultRefitEverySamples, 1, 1000000);
-      !s.ok()) {
-    return s;
-  }
-  refit->set_every_samples(every);
+  const absl::Status every_ok = IntWithDefault(Field(rpath, "every_samples"), &every,
+                                               kDefaultRefitEverySamples, 1, 1000000);
+  problems.Add(every_ok);
+  if (every_ok.ok()) refit->set_every_samples(every);
   int32_t min_samples = refit->min_samples();
-  if (absl::Status s = IntWithDefault(Field(rpath, "min_samples"), &min_samples,
-                                      kDefaultMinSamples, 2, 1000000);
-      !s.ok()) {
-    return s;
-  }
-  refit->set_min_samples(min_samples);
+  const absl::Status min_ok = IntWithDefault(Field(rpath, "min_samples"), &min_samples,
+                                             kDefaultMinSamples, 2, 1000000);
+  problems.Add(min_ok);
+  if (min_ok.ok()) refit->set_min_samples(min_samples);
 
-  if (absl::Status s = ValidateSignal(path, config); !s.ok()) return s;
-  if (absl::Status s = ValidateSep(path, config); !s.ok()) return s;
-  if (absl::Status s = ValidateRoi(path, config); !s.ok()) return s;
-  if (absl::Status s = ValidateOptimistic(path, config); !s.ok()) return s;
-  if (absl::Status s = ValidateSafety(path, config); !s.ok()) return s;
-  return ValidatePlanner(path, config->mutable_planner());
+  if (dims_ok) {
+    problems.Add(ValidateSignal(path, config));
+    problems.Add(ValidateSep(path, config));
+    problems.Add(ValidateRoi(path, config));
+    problems.Add(ValidateOptimistic(path, config));
+    problems.Add(ValidateSafety(path, config));
+  }
+  problems.Add(ValidatePlanner(path, config->mutable_planner()));
+  return problems.Result();
 }
 
 absl::StatusOr<v1::SessionConfig> ValidatedSessionConfig(const v1::SessionConfig& config,

@@ -3,6 +3,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/string_view.h"
@@ -21,6 +22,29 @@ std::optional<std::string> ViolatedField(const absl::Status& status);
 
 // `status` with the same code and payloads and a new message. OK stays OK.
 absl::Status WithMessage(const absl::Status& status, absl::string_view message);
+
+struct FieldViolation {
+  std::string field;
+  std::string description;
+};
+
+// Every field violation `status` carries: the one of FieldViolationError, or
+// each of a Violations::Result() with several. Empty if none.
+std::vector<FieldViolation> FieldViolations(const absl::Status& status);
+
+// The problems of one request, so that it is refused with all of them at once:
+// Add() each check's result. Result() is OK if none failed, the error itself if
+// one did, else INVALID_ARGUMENT "N problems: <first>; <second>; ..." carrying
+// every field violation (FieldViolations).
+class Violations {
+ public:
+  void Add(absl::Status status);
+  bool empty() const { return errors_.empty(); }
+  absl::Status Result() const;
+
+ private:
+  std::vector<absl::Status> errors_;
+};
 
 }  // namespace excite::service
 

@@ -1,7 +1,7 @@
 #include "server/service/grpc_status.h"
 
-#include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "google/rpc/error_details.pb.h"
@@ -17,17 +17,16 @@ grpc::Status ToGrpcStatus(const absl::Status& status) {
                                          ? static_cast<grpc::StatusCode>(code)
                                          : grpc::StatusCode::UNKNOWN;
   std::string message(status.message());
-  const std::optional<std::string> field = ViolatedField(status);
-  if (!field.has_value()) return grpc::Status(grpc_code, message);
+  const std::vector<FieldViolation> violations = FieldViolations(status);
+  if (violations.empty()) return grpc::Status(grpc_code, message);
 
   google::rpc::BadRequest bad_request;
-  google::rpc::BadRequest::FieldViolation* violation = bad_request.add_field_violations();
-  violation->set_field(*field);
-  // The description is the message after "<field>: " when it has that form.
-  const std::string prefix = absl::StrCat(*field, ": ");
-  const size_t at = message.find(prefix);
-  violation->set_description(
-      at == std::string::npos ? message : message.substr(at + prefix.size()));
+  for (const FieldViolation& v : violations) {
+    google::rpc::BadRequest::FieldViolation* violation =
+        bad_request.add_field_violations();
+    violation->set_field(v.field);
+    violation->set_description(v.description);
+  }
   google::rpc::Status details;
   details.set_code(static_cast<int>(grpc_code));
   details.set_message(message);

@@ -654,6 +654,25 @@ TEST_F(ServiceTest, InvalidArgumentCarriesBadRequestFieldViolations) {
     EXPECT_FALSE(bad.field_violations(0).description().empty());
     EXPECT_THAT(status.error_message(), HasSubstr(bad.field_violations(0).field()));
   }
+  // Three problems at once: one violation each, all in the message; an unknown
+  // enum value lists the valid ones.
+  create.mutable_config()->mutable_noise()->set_variance(-1);
+  create.mutable_config()->set_strategy(static_cast<v1::Strategy>(42));
+  {
+    grpc::ClientContext context;
+    v1::Session ignored;
+    const grpc::Status status = stub_->CreateSession(&context, create, &ignored);
+    ASSERT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_THAT(status.error_message(), HasSubstr("3 problems: config.input_bounds[0]"));
+    const google::rpc::BadRequest bad = BadRequestOf(status);
+    ASSERT_EQ(bad.field_violations_size(), 3);
+    EXPECT_EQ(bad.field_violations(0).field(), "config.input_bounds[0]");
+    EXPECT_EQ(bad.field_violations(1).field(), "config.noise.variance");
+    EXPECT_EQ(bad.field_violations(2).field(), "config.strategy");
+    EXPECT_THAT(bad.field_violations(2).description(),
+                HasSubstr("unknown value 42; valid: STRATEGY_REC, STRATEGY_PA"));
+    EXPECT_THAT(bad.field_violations(1).description(), HasSubstr("got -1"));
+  }
   // A request error in the second message of an AddData stream.
   const std::string name = Create("details-ok").name();
   v1::AddDataRequest good;
