@@ -237,6 +237,21 @@ def test_stream_acknowledges_each_message_and_says_what_to_resend(client):
     session.delete()
 
 
+def test_invalid_argument_carries_every_field_violation(client):
+    config = excite.session_config(linear_config())
+    config.noise.variance = -1
+    config.input_bounds[0].lower = 5
+    config.strategy = 42
+    with pytest.raises(excite.InvalidArgument) as error:
+        client.create_session(config)
+    assert error.value.code() == grpc.StatusCode.INVALID_ARGUMENT  # still an RpcError
+    assert isinstance(error.value, grpc.RpcError)
+    fields = [field for field, _ in error.value.violations]
+    assert fields == ["config.input_bounds[0]", "config.noise.variance", "config.strategy"]
+    assert "valid: STRATEGY_REC" in dict(error.value.violations)["config.strategy"]
+    assert "3 problems" in error.value.details() and "config.noise.variance" in str(error.value)
+
+
 def test_unparsable_request_bytes_are_invalid_argument(client):
     """gRPC itself answers bytes it cannot parse with INTERNAL and no message; the
     server says INVALID_ARGUMENT instead."""

@@ -24,11 +24,14 @@ from excite.client import (  # noqa: E402  (the stubs must exist first)
     TransitionStream,
     session_config,
 )
+from excite.errors import InvalidArgument, field_violations  # noqa: E402
 from excite.v1 import exploration_service_pb2 as pb  # noqa: E402
 from excite.v1 import session_config_pb2 as config_pb  # noqa: E402
 
 __all__ = [
     "Client",
+    "InvalidArgument",
+    "field_violations",
     "Plan",
     "Prediction",
     "Session",

@@ -18,6 +18,7 @@ import grpc
 import numpy as np
 from google.protobuf import json_format, text_format
 
+from excite.errors import CheckedStub, converted
 from excite.v1 import exploration_service_pb2 as pb
 from excite.v1 import exploration_service_pb2_grpc as pb_grpc
 from excite.v1 import session_config_pb2 as config_pb
@@ -207,7 +208,7 @@ class Client:
         self._raw_channel = channel
         self.channel = (grpc.intercept_channel(channel, _BearerToken(auth_token))
                         if auth_token else channel)
-        self.stub = pb_grpc.ExplorationServiceStub(self.channel)
+        self.stub = CheckedStub(pb_grpc.ExplorationServiceStub(self.channel))
         self.timeout_s = timeout_s
         self.plan_timeout_s = plan_timeout_s
         # grpc.health.v1.Health/Check with raw bytes: its two one-field messages
@@ -495,7 +496,7 @@ class TransitionStream:
                     self._duplicates += ack.duplicates
                     self._last_ack = ack
         except grpc.RpcError as error:
-            self._error = error
+            self._error = converted(error)
 
     def __enter__(self):
         self._call = self.session.client.stub.StreamData(
