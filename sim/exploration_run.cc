@@ -69,6 +69,8 @@ class ExplorationRun {
   absl::Status ApplyInput(const Eigen::VectorXd& u);
   // Sends the queued transitions (one AddData stream) and evaluates if due.
   absl::Status FlushAndMaybeEvaluate();
+  // Appends `stored` to options_.trajectory (the header first).
+  void WriteTrajectory(const std::vector<v1::Transition>& stored);
   absl::Status Evaluate();
   Eigen::VectorXd Measure(const Eigen::VectorXd& x);
 
@@ -93,6 +95,7 @@ class ExplorationRun {
   Eigen::VectorXd y_;  // Its measurement.
   std::vector<Eigen::VectorXd> visited_;
   std::vector<v1::Transition> pending_;
+  bool trajectory_header_written_ = false;
   int64_t samples_ = 0;
   double start_unix_s_ = 0.0;
   std::vector<double> plan_ms_;
@@ -309,7 +312,6 @@ absl::Status ExplorationRun::FlushAndMaybeEvaluate() {
   if (pending_.empty()) return absl::OkStatus();
   const int64_t sent = static_cast<int64_t>(pending_.size());
   absl::StatusOr<v1::AddDataResponse> reply = client_.AddData(session_name_, {pending_});
-  pending_.clear();
   if (!reply.ok()) return Annotate(reply.status(), "AddData");
   if (reply->stored() != sent || reply->sample_count() != samples_) {
     return absl::DataLossError(
@@ -317,12 +319,33 @@ absl::Status ExplorationRun::FlushAndMaybeEvaluate() {
                      reply->duplicates(), " duplicates); the session has ",
                      reply->sample_count(), " samples, expected ", samples_));
   }
+  if (options_.trajectory != nullptr) WriteTrajectory(pending_);
+  pending_.clear();
   const int64_t every = config_.evaluation().every_samples();
   if ((samples_ % every == 0 || samples_ == config_.samples()) &&
       samples_ >= min_samples_) {
     return Evaluate();
   }
   return absl::OkStatus();
+}
+
+void ExplorationRun::WriteTrajectory(const std::vector<v1::Transition>& stored) {
+  std::ostream& out = *options_.trajectory;
+  if (!trajectory_header_written_) {
+    out << "step";
+    for (int i = 0; i < dx_; ++i) out << ",x" << i;
+    for (int j = 0; j < du_; ++j) out << ",u" << j;
+    for (int i = 0; i < dx_; ++i) out << ",x" << i << "_next";
+    out << "\n";
+    trajectory_header_written_ = true;
+  }
+  for (const v1::Transition& t : stored) {
+    out << t.sequence();
+    for (double v : t.state()) out << "," << absl::StrFormat("%.17g", v);
+    for (double v : t.input()) out << "," << absl::StrFormat("%.17g", v);
+    for (double v : t.next_state()) out << "," << absl::StrFormat("%.17g", v);
+    out << "\n";
+  }
 }
 
 absl::Status ExplorationRun::Evaluate() {

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -31,6 +32,8 @@ ABSL_FLAG(int64_t, seed, -1,
           "seed of the measurement noise and of the session; -1 keeps the config's "
           "session.seed");
 ABSL_FLAG(std::string, summary, "", "write the JSON run summary to this file");
+ABSL_FLAG(std::string, trajectory, "",
+          "write every stored transition to this CSV file (step, x, u, x_next)");
 ABSL_FLAG(bool, keep_session, false, "keep the session on the server at the end");
 ABSL_FLAG(std::string, session_id, "", "session id to ask for; empty: server's choice");
 ABSL_FLAG(int32_t, connect_timeout_s, 10, "how long to wait for the server to be ready");
@@ -102,8 +105,27 @@ int Main() {
   options.keep_session = absl::GetFlag(FLAGS_keep_session);
   options.log = &std::cout;
   options.uniform_design = uniform_design;
+  std::ofstream trajectory;
+  const std::string trajectory_path = absl::GetFlag(FLAGS_trajectory);
+  if (!trajectory_path.empty()) {
+    trajectory.open(trajectory_path);
+    if (!trajectory) {
+      std::cerr << "excite-sim: cannot write --trajectory=" << trajectory_path << "\n";
+      return 1;
+    }
+    options.trajectory = &trajectory;
+  }
   absl::StatusOr<RunSummary> summary = RunExploration(*client, **plant, *config, options);
   if (!summary.ok()) return Fail(summary.status());
+  if (!trajectory_path.empty()) {
+    trajectory.close();
+    if (!trajectory) {
+      std::cerr << "excite-sim: writing --trajectory=" << trajectory_path << " failed\n";
+      return 1;
+    }
+    std::cout << "trajectory written to " << trajectory_path
+              << " (plot: sim/plot_trajectory.py " << trajectory_path << ")\n";
+  }
 
   std::cout << absl::StrFormat(
       "final rmse %.4f coverage marginal %.3f joint %s plan_ms_p50 %.1f wall_s %.1f\n",

@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <stdlib.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -220,11 +221,17 @@ TEST_F(EndToEndTest, PendulumPaReducesRmse) {
 // `excite export` writes a session to a file, `excite import` brings it back
 // (under its own id or --session_id), with its samples.
 TEST_F(EndToEndTest, CliExportsAndImportsASession) {
+  const std::string trajectory = work_.path() + "/trajectory.csv";
   ASSERT_EQ(RunSim({"--strategy=prbs", "--samples=12", "--seed=2", "--keep_session",
-                    "--session_id=cli-src"},
+                    "--session_id=cli-src", "--trajectory=" + trajectory},
                    "prbs", seconds(120)),
             0)
       << ReadFileOrEmpty(sim_err_);
+  // --trajectory: a header and one row per stored transition, numbered from 0.
+  const std::string rows = ReadFileOrEmpty(trajectory);
+  EXPECT_EQ(rows.rfind("step,x0,x1,u0,x0_next,x1_next\n0,", 0), 0u) << rows;
+  EXPECT_EQ(std::count(rows.begin(), rows.end(), '\n'), 13) << rows;
+  EXPECT_NE(rows.find("\n11,"), std::string::npos) << rows;
   const std::string file = work_.path() + "/cli-src.excite";
   std::string out, err;
   ASSERT_EQ(RunCli({"export", "cli-src", file}, &out, &err), 0) << err;

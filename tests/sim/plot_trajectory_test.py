@@ -1,0 +1,42 @@
+"""sim/plot_trajectory.py on a trajectory in excite-sim's format: a PNG with the
+three panels; a file that is not a trajectory is refused with exit 1."""
+import math
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+SCRIPT = pathlib.Path(__file__).resolve().parents[2] / "sim" / "plot_trajectory.py"
+
+
+def run(*args):
+    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True,
+                          text=True, check=False)
+
+
+def main():
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = pathlib.Path(tmp) / "run.csv"
+        lines = ["step,x0,x1,u0,x0_next,x1_next"]
+        for k in range(50):
+            x0, x1, u = math.sin(0.1 * k), math.cos(0.1 * k), (-1) ** k
+            lines.append(f"{k},{x0},{x1},{u},{x0 + 0.01},{x1 - 0.01}")
+        csv.write_text("\n".join(lines) + "\n")
+        result = run(str(csv))
+        assert result.returncode == 0, result.stderr
+        assert "50 transitions plotted to" in result.stdout, result.stdout
+        png = csv.with_suffix(".png")
+        data = png.read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20000, len(data)
+
+        bad = pathlib.Path(tmp) / "bad.csv"
+        bad.write_text("a,b\n1,2\n")
+        result = run(str(bad))
+        assert result.returncode == 1 and "not an excite-sim trajectory" in result.stderr, (
+            result.stderr)
+        assert run(str(pathlib.Path(tmp) / "missing.csv")).returncode == 1
+    print("plot_trajectory: ok")
+
+
+if __name__ == "__main__":
+    main()
