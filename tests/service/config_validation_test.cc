@@ -1,6 +1,7 @@
 #include "server/service/config_validation.h"
 
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <string>
 
@@ -8,6 +9,7 @@
 #include "google/protobuf/text_format.h"
 #include "gtest/gtest.h"
 #include "server/service/config_text.h"
+#include "tests/service/temp_dir.h"
 
 namespace excite::service {
 namespace {
@@ -321,6 +323,36 @@ TEST(ConfigTextTest, ParseErrorsNameLineAndColumn) {
   EXPECT_THAT(std::string(config.status().message()), HasSubstr("bogus"));
   EXPECT_EQ(LoadSessionConfigFile("/nonexistent/x.textproto").status().code(),
             absl::StatusCode::kNotFound);
+}
+
+TEST(ConfigTextTest, UnknownEnumValuesListTheValidOnes) {
+  absl::StatusOr<v1::SessionConfig> config =
+      ParseSessionConfigText("state_dim: 2\nstrategy: STRATEGY_BOGUS\n");
+  EXPECT_THAT(std::string(config.status().message()),
+              HasSubstr("\"STRATEGY_BOGUS\" for field \"strategy\". Valid: STRATEGY_REC, "
+                        "STRATEGY_PA,"));
+}
+
+TEST(ConfigTextTest, AConfigFileMayBeAPlantsSimConfig) {
+  excite::testing::TempDir tmp;
+  const std::string sim = tmp.path() + "/sim.textproto";
+  std::ofstream(sim) << "system: \"pendulum\"\nsession { state_dim: 2 input_dim: 1 }\n";
+  absl::StatusOr<v1::SessionConfig> config = LoadSessionConfigFile(sim);
+  ASSERT_TRUE(config.ok()) << config.status();
+  EXPECT_EQ(config->state_dim(), 2);
+  // A mistake in either kind is said in that kind's terms only.
+  std::ofstream(sim) << "system: \"pendulum\"\nsession { target: TARGET_X }\n";
+  config = LoadSessionConfigFile(sim);
+  EXPECT_THAT(std::string(config.status().message()),
+              ::testing::AllOf(HasSubstr("SimConfig text format: 2:"),
+                               HasSubstr("Valid: TARGET_DELTA, TARGET_NEXT"),
+                               ::testing::Not(HasSubstr("SessionConfig"))));
+  const std::string session = tmp.path() + "/session.textproto";
+  std::ofstream(session) << "state_dim: 2\nhorizon: many\n";
+  config = LoadSessionConfigFile(session);
+  EXPECT_THAT(std::string(config.status().message()),
+              ::testing::AllOf(HasSubstr("SessionConfig text format: 2:"),
+                               ::testing::Not(HasSubstr("SimConfig"))));
 }
 
 }  // namespace
