@@ -23,6 +23,8 @@ namespace {
 
 using ::excite::testing::ExpectStatus;
 using ::excite::testing::PendulumConfig;
+using ::excite::testing::PendulumFixedKernelConfig;
+using ::excite::testing::PendulumHyperparameters;
 using ::excite::testing::PendulumTransitions;
 using ::excite::testing::ServiceTest;
 
@@ -37,18 +39,8 @@ v1::Transition MakeTransition(std::vector<double> x, double u, std::vector<doubl
 }
 
 v1::SessionConfig FixedKernelConfig() {
-  v1::SessionConfig config = PendulumConfig();
-  config.mutable_noise()->set_fit(false);
-  v1::KernelConfig* kernel = config.mutable_kernel();
-  kernel->Clear();
-  kernel->set_fit(false);
-  for (int j = 0; j < 2; ++j) {
-    v1::Hyperparameters* h = kernel->add_fixed();
-    h->set_signal_variance(1.0);
-    for (int l = 0; l < 3; ++l) h->add_lengthscales(1.0);
-    h->set_noise_variance(1e-4);
-  }
-  return config;
+  const v1::Hyperparameters unit = PendulumHyperparameters(1.0, {1.0, 1.0, 1.0});
+  return PendulumFixedKernelConfig(unit, unit);
 }
 
 class HostileValuesTest : public ServiceTest {

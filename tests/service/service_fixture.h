@@ -47,6 +47,31 @@ inline v1::SessionConfig PendulumConfig(v1::Strategy strategy = v1::STRATEGY_REC
   return *config;
 }
 
+// Hyperparameters of one pendulum output (z = (theta, omega, u)).
+inline v1::Hyperparameters PendulumHyperparameters(double signal_variance,
+                                                   std::vector<double> lengthscales,
+                                                   double noise_variance = 1e-4) {
+  v1::Hyperparameters h;
+  h.set_signal_variance(signal_variance);
+  for (double l : lengthscales) h.add_lengthscales(l);
+  h.set_noise_variance(noise_variance);
+  return h;
+}
+
+// PendulumConfig() with fixed hyperparameters (no fit), `first` for theta's
+// output and `second` for omega's.
+inline v1::SessionConfig PendulumFixedKernelConfig(const v1::Hyperparameters& first,
+                                                   const v1::Hyperparameters& second) {
+  v1::SessionConfig config = PendulumConfig();
+  config.mutable_noise()->set_fit(false);
+  v1::KernelConfig* kernel = config.mutable_kernel();
+  kernel->Clear();
+  kernel->set_fit(false);
+  *kernel->add_fixed() = first;
+  *kernel->add_fixed() = second;
+  return config;
+}
+
 // A server started in SetUp with options_ (tests may change options_ and call
 // StopServer() / StartServer() to restart on the same data directory).
 class ServiceTest : public ::testing::Test {

@@ -23,22 +23,12 @@ using ::google::protobuf::util::MessageDifferencer;
 
 // Fixed hyperparameters of the pendulum config's two outputs.
 v1::Hyperparameters PendulumHyperparameters(double signal_variance) {
-  v1::Hyperparameters h;
-  h.set_signal_variance(signal_variance);
-  for (double l : {1.5, 3.0, 2.0}) h.add_lengthscales(l);
-  h.set_noise_variance(1e-4);
-  return h;
+  return excite::testing::PendulumHyperparameters(signal_variance, {1.5, 3.0, 2.0});
 }
 
 v1::SessionConfig FixedKernelConfig() {
-  v1::SessionConfig config = PendulumConfig();
-  config.mutable_noise()->set_fit(false);
-  v1::KernelConfig* kernel = config.mutable_kernel();
-  kernel->Clear();
-  kernel->set_fit(false);
-  *kernel->add_fixed() = PendulumHyperparameters(0.5);
-  *kernel->add_fixed() = PendulumHyperparameters(40.0);
-  return config;
+  return PendulumFixedKernelConfig(PendulumHyperparameters(0.5),
+                                   PendulumHyperparameters(40.0));
 }
 
 // A valid archive built by hand: 10 pendulum samples, hyperparameters for both
