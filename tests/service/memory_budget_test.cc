@@ -52,6 +52,15 @@ class MemoryBudgetTest : public ::testing::Test {
     client_ = client::ExciteClient::Connect(server_->address());
   }
 
+  // A Predict at one point succeeds.
+  void ExpectPredicts(const std::string& name) {
+    v1::PredictRequest predict;
+    predict.set_session(name);
+    for (double v : {0.1, 0.2, 0.3}) predict.add_inputs(v);
+    absl::StatusOr<v1::PredictResponse> predicted = client_->Predict(predict);
+    EXPECT_TRUE(predicted.ok()) << name << ": " << predicted.status();
+  }
+
   int64_t SampleCount(const std::string& name) {
     absl::StatusOr<v1::Session> session = client_->GetSession(name);
     return session.ok() ? session->sample_count() : -1;
@@ -80,11 +89,7 @@ TEST_F(MemoryBudgetTest, RefusesGrowthBeyondTheBudgetAndStoresNothing) {
   // A smaller step still fits, and the session still answers.
   ASSERT_TRUE(client_->AddData("sessions/a", {PendulumTransitions(10, 300, 3)}).ok());
   EXPECT_EQ(SampleCount("sessions/a"), 310);
-  v1::PredictRequest predict;
-  predict.set_session("sessions/a");
-  for (double v : {0.1, 0.2, 0.3}) predict.add_inputs(v);
-  absl::StatusOr<v1::PredictResponse> predicted = client_->Predict(predict);
-  EXPECT_TRUE(predicted.ok()) << predicted.status();
+  ExpectPredicts("sessions/a");
 
   // The whole session as an import does not fit beside it...
   absl::StatusOr<v1::SessionArchive> archive = client_->ExportSession("sessions/a");
@@ -119,11 +124,7 @@ TEST_F(MemoryBudgetTest, SessionsRestoredBeyondABudgetAreServedButDoNotGrow) {
   ASSERT_TRUE(client_->AddData("sessions/a", {PendulumTransitions(200, 0, 1)}).ok());
   Start(ModelBytes(100));  // restart with a budget smaller than the session
   EXPECT_EQ(SampleCount("sessions/a"), 200);
-  v1::PredictRequest predict;
-  predict.set_session("sessions/a");
-  for (double v : {0.1, 0.2, 0.3}) predict.add_inputs(v);
-  absl::StatusOr<v1::PredictResponse> predicted = client_->Predict(predict);
-  EXPECT_TRUE(predicted.ok()) << predicted.status();
+  ExpectPredicts("sessions/a");
   EXPECT_EQ(
       client_->AddData("sessions/a", {PendulumTransitions(1, 200, 2)}).status().code(),
       absl::StatusCode::kResourceExhausted);
