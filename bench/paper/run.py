@@ -12,6 +12,8 @@ system config's, the same for every trial and strategy.
   bench/paper/run.py --ci              pendulum + one MuJoCo system, tiny budgets,
                                        then checks the outputs (exit 1 on a problem)
   bench/paper/run.py --report_only DIR re-aggregate an existing results directory
+  bench/paper/run.py --report_only DIR1 DIR2 results.csv ... --out DIR
+                                       combine runs (a later source's trial wins)
 
 Systems without a config and strategies excite-sim does not know are reported and
 skipped. Outputs (default results/paper/<timestamp>/): results.csv, trials.csv,
@@ -584,16 +586,24 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
                         for s in shown_systems)
     mode_text = {"full": "full mode", "quick": "QUICK mode (small sample budgets, "
                  "not the paper's protocol)", "ci": "CI mode (tiny budgets; a smoke "
-                 "test, the numbers mean nothing)"}[meta["mode"]]
+                 "test, the numbers mean nothing)", "csv": "re-plotted from a "
+                 "results.csv"}.get(meta["mode"], meta["mode"] + " modes")
     lines = [
         f"# Paper benchmark: final RMSE and coverage ({meta['mode']})",
         "",
         f"- Mode: {mode_text}{meta.get('overrides', '')}; samples per trial: "
         f"{samples}.",
-        f"- Run: {meta['started']}, {fmt_duration(meta.get('wall_s'))} wall, "
+        f"- Run: {meta['started']}, {fmt_duration(meta.get('wall_s'))} wall"
+        f"{' (sum over the runs)' if len(meta.get('sources', [])) > 1 else ''}, "
         f"--jobs {meta['jobs']}, {meta.get('servers', 1)} server(s), commit {meta['commit']}.",
         f"- Machine: {meta['machine']}.",
         f"- Command: `{meta['command']}`",
+    ] + [
+        f"- Source: `{src['path']}` ({src.get('mode')}, {src.get('started')}, commit "
+        f"{src.get('commit')}" + (f": `{src['command']}`)" if src.get("command")
+                                  else ")")
+        for src in meta.get("sources", [])
+    ] + [
         "- Cells: mean ± sample std over the successful trials (seeds = trial index); "
         "best per column in **bold** (lowest RMSE, highest coverage). RMSE in state "
         "units over the config's evaluation set; coverage marginal = mean over state "
@@ -642,7 +652,8 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
         log(f"WARNING: no plots ({e}); install python3-matplotlib and run "
             f"{sys.argv[0]} --report_only {out_dir}")
         return table_md, pngs
-    subtitle = {"full": "", "quick": "quick mode", "ci": "CI mode"}[meta["mode"]]
+    subtitle = {"full": "", "quick": "quick mode", "ci": "CI mode"}.get(meta["mode"],
+                                                                       "")
     for s in shown_systems:
         path = os.path.join(out_dir, f"rmse_{s}.png")
         if plots.plot_rmse_system(path, history, s, shown_strats, sys_labels[s],
@@ -665,10 +676,135 @@ def trial_record(t):
             "result": t.result}
 
 
-def report_only(out_dir, cfg):
-    with open(os.path.join(out_dir, "run.json"), encoding="utf-8") as f:
-        saved = json.load(f)
-    meta, records = saved["meta"], saved["trials"]
+def load_report_source(path):
+    """(meta, records) of one --report_only source: a results directory (its
+    run.json) or a results.csv (trials rebuilt from it: histories, final RMSE,
+    coverage and plan time; no wall times, seeds or failed trials)."""
+    if os.path.isdir(path):
+        with open(os.path.join(path, "run.json"), encoding="utf-8") as f:
+            saved = json.load(f)
+        return saved["meta"], saved["trials"]
+    trials = aggregate.read_csv(path)
+    records = [{"system": t["system"], "strategy": t["strategy"], "trial": t["trial"],
+                "seed": None, "status": "ok", "error": "", "wall": None, "result": t}
+               for t in trials]
+    samples = {}
+    for t in trials:
+        samples[t["system"]] = max(samples.get(t["system"], 0), t["samples"])
+    meta = {"mode": "csv", "started": "?", "command": "", "jobs": "?",
+            "servers": "?", "machine": "?", "commit": "?",
+            "systems": list(dict.fromkeys(t["system"] for t in trials)),
+            "strategies": list(dict.fromkeys(t["strategy"] for t in trials)),
+            "planned": {}, "samples": samples, "skipped": [], "wall_s": None}
+    return meta, records
+
+
+def _joined(values, sep=", "):
+    return sep.join(dict.fromkeys(str(v) for v in values if v not in (None, "")))
+
+
+def merge_sources(sources, cfg, command):
+    """One (meta, records) from several --report_only sources (directories or
+    results.csv files), in the order given: a later source's trial replaces an
+    earlier one with the same (system, strategy, trial index), except that a
+    failed or skipped trial never replaces a successful one. Systems and
+    strategies come out in benchmark.json's order; planned = the trials merged."""
+    by_key, metas = {}, []
+    for path in sources:
+        meta, records = load_report_source(path)
+        metas.append((path, meta))
+        for r in records:
+            key = (r["system"], r["strategy"], r["trial"])
+            old = by_key.get(key)
+            if old is None or r["status"] == "ok" or old["status"] != "ok":
+                by_key[key] = r
+    records = [by_key[k] for k in sorted(by_key)]
+
+    def in_config_order(names, known):
+        names = list(dict.fromkeys(names))
+        return [n for n in known if n in names] + [n for n in names if n not in known]
+
+    systems = in_config_order([s for _, m in metas for s in m["systems"]],
+                              list(cfg["systems"]))
+    strategies = in_config_order([s for _, m in metas for s in m["strategies"]],
+                                 list(cfg["strategies"]))
+    planned = {}
+    for r in records:
+        k = f"{r['system']}/{r['strategy']}"
+        planned[k] = planned.get(k, 0) + 1
+    samples = {}
+    for _, m in metas:
+        samples.update(m.get("samples") or {})
+    ok_pairs = {(r["system"], r["strategy"]) for r in records if r["status"] == "ok"}
+    skipped = []
+    for _, m in metas:
+        for item in m.get("skipped") or []:
+            item = list(item)
+            if (item[0], item[1]) not in ok_pairs and item not in skipped:
+                skipped.append(item)
+    modes = sorted({m["mode"] for _, m in metas})
+    started = sorted(m["started"] for _, m in metas if m.get("started") not in
+                     (None, "?"))
+    walls = [m.get("wall_s") for _, m in metas if m.get("wall_s") is not None]
+    meta = {
+        "mode": modes[0] if len(modes) == 1 else "+".join(modes),
+        "started": (started[0] if len(started) == 1 else
+                    f"{started[0]} to {started[-1]}" if started else "?"),
+        "wall_s": sum(walls) if walls else None,
+        "command": command,
+        "jobs": _joined(m.get("jobs") for _, m in metas) or "?",
+        "servers": _joined(m.get("servers") for _, m in metas) or "?",
+        "machine": _joined((m.get("machine") for _, m in metas), "; ") or "?",
+        "commit": _joined(m.get("commit") for _, m in metas) or "?",
+        "systems": systems, "strategies": strategies, "planned": planned,
+        "samples": samples, "skipped": skipped, "overrides": "",
+        "sources": [{"path": path, "command": m.get("command", ""),
+                     "started": m.get("started", "?"), "commit": m.get("commit", "?"),
+                     "mode": m.get("mode")} for path, m in metas],
+    }
+    return meta, records
+
+
+def filter_report(meta, records, systems, strategies):
+    """Only the given systems and strategies (None: all) in the report."""
+    if systems:
+        meta["systems"] = [s for s in meta["systems"] if s in systems]
+    if strategies:
+        meta["strategies"] = [s for s in meta["strategies"] if s in strategies]
+    keep = [r for r in records
+            if r["system"] in meta["systems"] and r["strategy"] in meta["strategies"]]
+    meta["planned"] = {k: v for k, v in meta["planned"].items()
+                       if tuple(k.split("/")) in
+                       {(r["system"], r["strategy"]) for r in keep}}
+    return meta, keep
+
+
+def report_only(sources, cfg, out=None, systems=None, strategies=None, argv=()):
+    """Re-aggregates and re-plots. One results directory without --out: in place
+    (as before). Several sources, a results.csv, or --systems/--strategies: into
+    --out, which gets results.csv, trials.csv, table.md, summary.json, the plots
+    and a run.json (so that --report_only OUT works on it too)."""
+    combined = len(sources) > 1 or not os.path.isdir(sources[0]) or systems \
+        or strategies
+    if not out and combined:
+        sys.exit("run.py: --report_only with several sources, a results.csv or "
+                 "--systems/--strategies writes to --out DIR; give one")
+    if not out:
+        out_dir = sources[0]
+        with open(os.path.join(out_dir, "run.json"), encoding="utf-8") as f:
+            saved = json.load(f)
+        meta, records = saved["meta"], saved["trials"]
+    else:
+        out_dir = os.path.abspath(out)
+        if any(os.path.abspath(s) == out_dir for s in sources):
+            sys.exit("run.py: --out must not be one of the --report_only sources")
+        meta, records = merge_sources(
+            sources, cfg, " ".join(["bench/paper/run.py"] + list(argv)))
+        meta, records = filter_report(meta, records, split_list(systems),
+                                      split_list(strategies))
+        prepare_out_dir(out_dir)
+        with open(os.path.join(out_dir, "run.json"), "w", encoding="utf-8") as f:
+            json.dump({"meta": meta, "trials": records}, f, indent=1)
     results = [r["result"] for r in records if r["status"] == "ok" and r["result"]]
     table_md, pngs = write_reports(out_dir, cfg, meta, records, results)
     print(table_md)
@@ -736,7 +872,12 @@ def parse_args(argv):
     p.add_argument("--dry_run", "--dry-run", dest="dry_run", action="store_true",
                    help="print the plan (and what is missing) and exit")
     p.add_argument("--report_only", "--report-only", dest="report_only",
-                   metavar="DIR", help="re-aggregate an existing results directory")
+                   metavar="DIR", nargs="+",
+                   help="re-aggregate and re-plot existing results: one results "
+                   "directory (in place), or several directories and/or results.csv "
+                   "files combined into --out (a later source's trial replaces an "
+                   "earlier one with the same system, strategy and index); "
+                   "--systems/--strategies select what is reported")
     return p.parse_args(argv)
 
 
@@ -744,7 +885,8 @@ def main(argv):
     args = parse_args(argv)
     cfg = load_config(args.config)
     if args.report_only:
-        return report_only(args.report_only, cfg)
+        return report_only(args.report_only, cfg, args.out, args.systems,
+                           args.strategies, argv)
     mode = "quick" if args.quick else "ci" if args.ci else "full"
     for b in (args.server_bin, args.sim_bin):
         if not os.access(b, os.X_OK):

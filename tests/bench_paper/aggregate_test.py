@@ -1,5 +1,5 @@
-"""Unit tests of bench/paper's aggregation, CSV writing and output checks, on
-constructed data (no server, no simulator).
+"""Unit tests of bench/paper's aggregation, CSV writing, output checks, plot rules
+and combining of runs, on constructed data (no server, no simulator).
 
   /usr/bin/python3 tests/bench_paper/aggregate_test.py [--bench_dir bench/paper]
 """
@@ -282,6 +282,199 @@ class PngCheckTest(unittest.TestCase):
             open(empty, "wb").close()
             self.assertIn("too short", check.check_png(empty))
             self.assertIn("missing", check.check_png(os.path.join(d, "none.png")))
+
+
+try:
+    import plots  # bench/paper/plots.py (needs python3-matplotlib)
+except ImportError:
+    plots = None
+
+
+def rows(*points, n=3, std=0.01):
+    """history_stats rows (samples, mean, std, n) for means at 10, 20, ..."""
+    return [(10 * (i + 1), m, std, n) for i, m in enumerate(points)]
+
+
+@unittest.skipIf(plots is None, "matplotlib not installed")
+class PlotRulesTest(unittest.TestCase):
+    """bench/paper/plots.py: which strategies are highlighted, when the y axis is
+    logarithmic, what the legends say, the resolution of the PNGs."""
+
+    STRATEGIES = ["prbs", "chirp", "rec", "pa", "mi", "roi", "uniform"]
+
+    def history(self):
+        return {
+            ("p", "prbs"): rows(1.0, 0.50),
+            ("p", "chirp"): rows(1.0, 0.90),
+            ("p", "rec"): rows(1.0, 0.30),
+            ("p", "pa"): rows(1.0, 0.40),
+            ("p", "mi"): rows(1.0, 0.35, n=2),
+            ("p", "roi"): [(10, 1.0, None, 1), (20, 0.60, None, 1)],
+            # The reference is lowest but never ranked nor highlighted.
+            ("p", "uniform"): rows(0.5, 0.20, n=5),
+            ("other", "rec"): rows(9.0, 0.01),
+        }
+
+    def test_highlighted_are_the_three_lowest_final_means(self):
+        plan = plots.panel_plan(self.history(), "p", self.STRATEGIES)
+        self.assertEqual(plan["ranked"], ["rec", "mi", "pa", "prbs", "roi", "chirp"])
+        self.assertEqual(plan["highlighted"], ["rec", "mi", "pa"])
+        self.assertEqual(plan["references"], ["uniform"])
+        self.assertEqual(plan["order"][-1], "uniform")
+
+    def test_a_tie_as_displayed_is_highlighted_too(self):
+        h = self.history()
+        h[("p", "prbs")] = rows(1.0, 0.40004)  # reads 0.4 like pa (0.40)
+        plan = plots.panel_plan(h, "p", self.STRATEGIES)
+        self.assertEqual(plan["highlighted"], ["rec", "mi", "pa", "prbs"])
+        # An exact tie in the ranking: the order of the strategy list decides.
+        h[("p", "prbs")] = rows(1.0, 0.30)
+        plan = plots.panel_plan(h, "p", self.STRATEGIES)
+        self.assertEqual(plan["ranked"][:2], ["prbs", "rec"])
+
+    def test_few_strategies_are_all_highlighted(self):
+        plan = plots.panel_plan(self.history(), "other", self.STRATEGIES)
+        self.assertEqual(plan["highlighted"], ["rec"])
+        self.assertIsNone(plots.panel_plan(self.history(), "none", self.STRATEGIES))
+
+    def test_log_scale_only_beyond_three_quarters_of_a_decade(self):
+        # p: means from 1.0 down to 0.2: a factor 5 < 10^0.75 = 5.62: linear from 0.
+        plan = plots.panel_plan(self.history(), "p", self.STRATEGIES)
+        self.assertFalse(plan["log"])
+        self.assertEqual(plan["ylim"][0], 0.0)
+        self.assertAlmostEqual(plan["ylim"][1], 1.05)
+        # A factor 6 (first point included): log, limits around the mean curves.
+        h = self.history()
+        h[("p", "uniform")] = rows(0.5, 1.0 / 6.0)
+        plan = plots.panel_plan(h, "p", self.STRATEGIES)
+        self.assertTrue(plan["log"])
+        self.assertAlmostEqual(plan["ylim"][0], 1.0 / 6.0 / 1.15)
+        self.assertAlmostEqual(plan["ylim"][1], 1.15)
+        # other: 9.0 to 0.01, three decades.
+        self.assertTrue(plots.panel_plan(h, "other", self.STRATEGIES)["log"])
+
+    def test_drawn_panel(self):
+        import matplotlib.pyplot as plt
+        from matplotlib.collections import PolyCollection
+        fig, ax = plt.subplots()
+        try:
+            plan = plots.draw_rmse_panel(ax, self.history(), "p", self.STRATEGIES,
+                                         {"uniform": "uniform (ideal)"}, "P")
+            self.assertEqual(ax.get_yscale(), "linear")
+            texts = [t.get_text() for t in ax.get_legend().get_texts()]
+            self.assertEqual(texts, [
+                "rec (n=3): 0.3", "mi (n=2): 0.35", "pa (n=3): 0.4",
+                "prbs (n=3): 0.5", "roi (n=1): 0.6", "chirp (n=3): 0.9",
+                "uniform (ideal) (n=5): 0.2"])
+            widths = {line.get_label().split(" ")[0]: line.get_linewidth()
+                      for line in ax.get_lines()}
+            for s in plan["highlighted"]:
+                for other in ("prbs", "roi", "chirp", "uniform"):
+                    self.assertGreater(widths[s], widths[other])
+            # One ± std band per highlighted strategy, none for the others.
+            bands = [c for c in ax.collections if isinstance(c, PolyCollection)]
+            self.assertEqual(len(bands), 3)
+            # The legend is outside the axes (anchored right of them).
+            self.assertGreater(ax.get_legend().get_bbox_to_anchor().x0,
+                               ax.get_window_extent().x1)
+            ax.clear()
+            h = self.history()
+            h[("p", "uniform")] = rows(0.5, 0.05)
+            plots.draw_rmse_panel(ax, h, "p", self.STRATEGIES, {}, "P")
+            self.assertEqual(ax.get_yscale(), "log")
+        finally:
+            plt.close(fig)
+
+    def test_trial_count_text(self):
+        self.assertEqual(plots.trial_count_text(3, 3), "n=3")
+        self.assertEqual(plots.trial_count_text(1, 3), "n=1-3")
+        self.assertEqual(plots.legend_label("rec", 2, 3, 0.215349), "rec (n=2-3): 0.215")
+
+    def test_pngs_at_150_dpi(self):
+        trials = [trial("p", "rec", k, [[10, 1.0 + k], [20, 0.5 + k]]) for k in range(3)]
+        trials += [trial("q", "mi", 0, [[10, 2.0], [20, 1.0]], cov=0.7)]
+        history = aggregate.history_stats(trials)
+        stats = aggregate.final_stats(trials)
+        with tempfile.TemporaryDirectory() as d:
+            paths = [os.path.join(d, n) for n in ("a.png", "b.png", "c.png")]
+            self.assertTrue(plots.plot_rmse_system(paths[0], history, "p", ["rec", "mi"],
+                                                   "P", {}))
+            self.assertTrue(plots.plot_rmse_all(paths[1], history, ["p", "q"],
+                                                ["rec", "mi"], {}, {}))
+            self.assertTrue(plots.plot_coverage(paths[2], stats, ["p", "q"],
+                                                ["rec", "mi"], {}, {}))
+            for path in paths:
+                self.assertEqual(check.check_png(path), "")
+                self.assertGreaterEqual(plots.png_dpi(path), 150, path)
+            self.assertFalse(plots.plot_rmse_system(os.path.join(d, "x.png"), history,
+                                                    "none", ["rec"], "N", {}))
+            self.assertFalse(os.path.exists(os.path.join(d, "x.png")))
+
+
+class CombineRunsTest(unittest.TestCase):
+    """run.py --report_only with several results directories and a results.csv."""
+
+    def write_run(self, d, meta, records):
+        import json
+        os.makedirs(d)
+        with open(os.path.join(d, "run.json"), "w") as f:
+            json.dump({"meta": meta, "trials": records}, f)
+
+    @staticmethod
+    def record(system, strategy, k, final, status="ok"):
+        t = trial(system, strategy, k, [[10, 2.0], [20, final]])
+        return {"system": system, "strategy": strategy, "trial": k, "seed": k,
+                "status": status, "error": "" if status == "ok" else "boom",
+                "wall": 1.0, "result": t if status == "ok" else None}
+
+    @staticmethod
+    def meta(systems, strategies, started, commit):
+        return {"mode": "full", "started": started, "command": "run.py", "jobs": 2,
+                "servers": 2, "machine": "m", "commit": commit, "systems": systems,
+                "strategies": strategies, "planned": {}, "samples": {"pendulum": 20},
+                "skipped": [], "wall_s": 10.0}
+
+    def test_later_source_wins_and_failures_do_not_replace(self):
+        import contextlib
+        import io
+        import run
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            self.write_run(a, self.meta(["pendulum"], ["rec", "roi"], "T1", "c1"), [
+                self.record("pendulum", "rec", 0, 0.5),
+                self.record("pendulum", "rec", 1, 0.6),
+                self.record("pendulum", "roi", 0, 0.3)])
+            self.write_run(b, self.meta(["pendulum"], ["rec"], "T2", "c2"), [
+                self.record("pendulum", "rec", 0, 0.4),  # replaces a's trial 0
+                self.record("pendulum", "rec", 1, None, status="failed")])
+            cfg = run.load_config(run.DEFAULT_CONFIG)
+            meta, records = run.merge_sources([a, b], cfg, "cmd")
+            finals = {(r["system"], r["strategy"], r["trial"]): r["result"]["final_rmse"]
+                      for r in records}
+            self.assertEqual(finals, {("pendulum", "rec", 0): 0.4,
+                                      ("pendulum", "rec", 1): 0.6,
+                                      ("pendulum", "roi", 0): 0.3})
+            self.assertEqual(meta["strategies"], ["rec", "roi"])  # benchmark.json order
+            self.assertEqual(meta["planned"], {"pendulum/rec": 2, "pendulum/roi": 1})
+            self.assertEqual(meta["started"], "T1 to T2")
+            self.assertEqual(meta["commit"], "c1, c2")
+
+            out = os.path.join(d, "out")
+            with contextlib.redirect_stdout(io.StringIO()):
+                run.report_only([a, b], cfg, out, None, ["rec"])
+            back = aggregate.read_csv(os.path.join(out, "results.csv"))
+            self.assertEqual(sorted((t["strategy"], t["final_rmse"]) for t in back),
+                             [("rec", 0.4), ("rec", 0.6)])
+            # The combined results.csv alone re-plots the same figure.
+            again = os.path.join(d, "again")
+            with contextlib.redirect_stdout(io.StringIO()):
+                run.report_only([os.path.join(out, "results.csv")], cfg, again)
+            for name in ("rmse_pendulum.png", "rmse_all.png", "coverage.png"):
+                self.assertEqual(check.check_png(os.path.join(again, name)), "")
+                if plots is not None:
+                    with open(os.path.join(out, name), "rb") as f1, \
+                            open(os.path.join(again, name), "rb") as f2:
+                        self.assertEqual(f1.read(), f2.read(), name)
 
 
 if __name__ == "__main__":
