@@ -1,10 +1,15 @@
 """Fixtures: a real excite-server process on a free port with a temporary data dir.
 
 The binary is $EXCITE_SERVER_BIN (ctest sets it to the build's excite-server), else
-build/release/server/excite-server. The Python package is client/python (added to
-sys.path here, so plain `/usr/bin/python3 -m pytest tests/python` works).
+build/release/server/excite-server. The Python package is client/python, used in
+place: its stubs are generated here first if they are missing or older than proto/
+(client/python/excite/codegen.py, loaded by path: the package cannot be imported
+without them), then client/python goes on sys.path, so plain
+`/usr/bin/python3 -m pytest tests/python` works. test_install.py installs it into a
+venv instead.
 """
 
+import importlib.util
 import os
 import pathlib
 import re
@@ -16,7 +21,21 @@ import threading
 import pytest
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "client" / "python"))
+CLIENT_DIR = REPO / "client" / "python"
+
+
+def load_codegen():
+    """client/python/excite/codegen.py as a module, without importing excite."""
+    spec = importlib.util.spec_from_file_location(
+        "excite_codegen_for_tests", CLIENT_DIR / "excite" / "codegen.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+codegen = load_codegen()
+codegen.ensure_stubs()
+sys.path.insert(0, str(CLIENT_DIR))
 
 import excite  # noqa: E402
 

@@ -348,10 +348,13 @@ def test_duffing_example_explores_and_reports_rmse(server):
 
 
 def test_stubs_are_generated_from_the_current_protos():
-    stamp = pathlib.Path(excite.codegen.STAMP).read_text().strip()
-    assert stamp == excite.codegen._digest(excite.codegen.proto_dir())
+    from conftest import codegen
+    stamp = pathlib.Path(codegen.STAMP).read_text().strip()
+    assert stamp == codegen.digest(codegen.proto_dir())
     from excite.v1 import exploration_service_pb2_grpc
     assert hasattr(exploration_service_pb2_grpc, "ExplorationServiceStub")
+    assert excite.pb.__file__ == str(pathlib.Path(codegen.STUB_DIR) /
+                                     "exploration_service_pb2.py")
 
 
 def test_session_calls_carry_the_routing_header():

@@ -3,38 +3,36 @@
     import excite
     with excite.Client("127.0.0.1:50051") as client:
         session = client.create_session("sim/configs/pendulum.textproto")
-        plan = session.plan([0.0, 0.0])
-        session.add(states, inputs, next_states)
+        plan = session.plan([0.0, 0.0])                   # excite.Plan
+        result = session.add(states, inputs, next_states) # excite.AddResult
         prediction = session.predict(z)      # .mean, .variance: (n, state_dim)
+        data = session.samples()             # excite.Samples: numpy arrays
 
-The protobuf and gRPC stubs are generated from proto/ on first import (and again
-whenever the protos change) with Debian's protoc and grpc_python_plugin; they are
-importable as ``excite.v1.exploration_service_pb2`` etc. See client/python/README.md.
+``excite.aio`` has the same calls as coroutines (grpc.aio). The protobuf and gRPC
+stubs are importable as ``excite.v1.exploration_service_pb2`` etc. (also
+``excite.pb``, ``excite.config_pb``); they are generated from proto/ when the
+package is built (``pip install client/python``), or, to use client/python in
+place, by ``/usr/bin/python3 client/python/excite/codegen.py``. Importing never
+generates anything. See client/python/README.md.
 """
 
-from excite import codegen as _codegen
+from excite._common import AddResult, Plan, Prediction, Samples, session_config
+from excite._pb import config_pb, pb
+from excite.client import SESSION_HEADER, Client, Session, TransitionStream
+from excite.errors import InvalidArgument, field_violations
 
-_codegen.ensure_stubs()
-
-from excite.client import (  # noqa: E402  (the stubs must exist first)
-    Client,
-    Plan,
-    Prediction,
-    Session,
-    TransitionStream,
-    session_config,
-)
-from excite.errors import InvalidArgument, field_violations  # noqa: E402
-from excite.v1 import exploration_service_pb2 as pb  # noqa: E402
-from excite.v1 import session_config_pb2 as config_pb  # noqa: E402
+__version__ = "0.1.0"
 
 __all__ = [
+    "AddResult",
     "Client",
     "InvalidArgument",
     "field_violations",
     "Plan",
     "Prediction",
+    "Samples",
     "Session",
+    "SESSION_HEADER",
     "TransitionStream",
     "session_config",
     "pb",

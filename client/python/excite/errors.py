@@ -1,11 +1,16 @@
 """The exception the client raises for INVALID_ARGUMENT, with the server's field
-violations (google.rpc.BadRequest in the grpc-status-details-bin trailer)."""
+violations (google.rpc.BadRequest in the grpc-status-details-bin trailer), and
+the stub wrappers that raise it (blocking and asyncio)."""
+
+from __future__ import annotations
+
+from typing import Any, List, Tuple
 
 import grpc
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 
 
-def _rpc_messages():
+def _rpc_messages() -> Tuple[Any, Any]:
     """google.rpc.Status and google.rpc.BadRequest, built from their wire layout
     (Debian ships no Python googleapis-common-protos): the server's bytes parse
     with them exactly."""
@@ -38,7 +43,7 @@ def _rpc_messages():
 _Status, _BadRequest = _rpc_messages()
 
 
-def field_violations(error):
+def field_violations(error: Any) -> List[Tuple[str, str]]:
     """[(field, description), ...] from an RpcError's google.rpc.BadRequest details;
     [] if it carries none."""
     trailers = error.trailing_metadata() if hasattr(error, "trailing_metadata") else None
@@ -59,27 +64,27 @@ class InvalidArgument(grpc.RpcError):
     [1e-30, 1e+30], got -1")). code(), details() and trailing_metadata() are the
     original error's."""
 
-    def __init__(self, error):
+    def __init__(self, error: Any) -> None:
         super().__init__()
         self.error = error
-        self.violations = field_violations(error)
+        self.violations: List[Tuple[str, str]] = field_violations(error)
 
-    def code(self):
+    def code(self) -> grpc.StatusCode:
         return self.error.code()
 
-    def details(self):
+    def details(self) -> str:
         return self.error.details()
 
-    def trailing_metadata(self):
+    def trailing_metadata(self) -> Any:
         return self.error.trailing_metadata()
 
-    def __str__(self):
+    def __str__(self) -> str:
         lines = [f"INVALID_ARGUMENT: {self.details()}"]
         lines += [f"  {field}: {description}" for field, description in self.violations]
         return "\n".join(lines)
 
 
-def converted(error):
+def converted(error: BaseException) -> BaseException:
     """`error`, as InvalidArgument if that is its code."""
     if isinstance(error, grpc.RpcError) and not isinstance(error, InvalidArgument) and \
             error.code() == grpc.StatusCode.INVALID_ARGUMENT:
@@ -91,22 +96,41 @@ class CheckedStub:
     """The generated stub whose unary and client-streaming calls raise
     InvalidArgument for INVALID_ARGUMENT (other errors unchanged)."""
 
-    def __init__(self, stub):
+    def __init__(self, stub: Any) -> None:
         self._stub = stub
 
-    def __getattr__(self, name):
+    def __getattr__(self, name: str) -> Any:
         return _CheckedMethod(getattr(self._stub, name))
 
 
 class _CheckedMethod:
-    def __init__(self, method):
+    def __init__(self, method: Any) -> None:
         self._method = method
 
-    def __call__(self, *args, **kwargs):
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
         try:
             return self._method(*args, **kwargs)
         except grpc.RpcError as error:
             raise converted(error) from None
 
-    def __getattr__(self, name):  # .future, .with_call: unchanged
+    def __getattr__(self, name: str) -> Any:  # .future, .with_call: unchanged
         return getattr(self._method, name)
+
+
+class AioCheckedStub:
+    """The generated stub on a grpc.aio channel whose unary and client-streaming
+    calls are coroutines raising InvalidArgument for INVALID_ARGUMENT."""
+
+    def __init__(self, stub: Any) -> None:
+        self._stub = stub
+
+    def __getattr__(self, name: str) -> Any:
+        method = getattr(self._stub, name)
+
+        async def call(*args: Any, **kwargs: Any) -> Any:
+            try:
+                return await method(*args, **kwargs)
+            except grpc.RpcError as error:
+                raise converted(error) from None
+
+        return call

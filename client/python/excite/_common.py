@@ -1,0 +1,427 @@
+"""What the blocking client (excite.client) and the asyncio client (excite.aio)
+share: config parsing, request building, reply conversion, result types, channel
+settings. Nothing here makes a call."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import pathlib
+import time
+from typing import Any, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+
+import grpc
+import numpy as np
+import numpy.typing as npt
+from google.protobuf import json_format, text_format
+
+from excite._pb import config_pb, pb, sim_pb
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+# A session config: a message, a dict in proto field names, a textproto string, or
+# the path of a textproto file (see session_config).
+ConfigLike = Union[config_pb.SessionConfig, sim_pb.SimConfig, Mapping[str, Any], str,
+                   "os.PathLike[str]"]
+# A session archive: the message, its serialized bytes, or the path of such a file.
+ArchiveLike = Union[pb.SessionArchive, bytes, bytearray, str, "os.PathLike[str]"]
+Metadata = Optional[Tuple[Tuple[str, str], ...]]
+
+# Every call about one session carries its id in this header, so that a load
+# balancer can route all of a session's calls to the replica that holds it
+# (consistent hash on the header; see docs/deployment.md, "Several replicas").
+SESSION_HEADER = "x-excite-session"
+AUTH_TOKEN_ENV = "EXCITE_AUTH_TOKEN"
+
+_ENUM_PREFIX = {"strategy": "STRATEGY_", "target": "TARGET_"}
+_INTERVAL_FIELDS = ("input_bounds", "state_bounds")
+_SERVING_STATUS = {0: "UNKNOWN", 1: "SERVING", 2: "NOT_SERVING", 3: "SERVICE_UNKNOWN"}
+
+
+# ----------------------------------------------------------------------- results
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Prediction:
+    """Predicted next state for each z = (x, u): arrays of shape (n, state_dim)."""
+
+    mean: FloatArray
+    variance: FloatArray
+    model_version: int
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Plan:
+    """A plan from PlanInputs. Arrays have one row per step of the horizon."""
+
+    inputs: FloatArray  # (horizon, input_dim): u_k .. u_{k+horizon-1}
+    # (horizon, state_dim), row 0 is the given state; (0, state_dim) for the
+    # model-free strategies (prbs, chirp, random).
+    predicted_states: FloatArray
+    predicted_variances: FloatArray  # like predicted_states: latent variances
+    horizon: int  # number of inputs returned
+    apply_count: int  # apply this many inputs, then plan again
+    objective: float  # summed differential entropy (nats)
+    solver_status: str  # e.g. "SOLVER_STATUS_CONVERGED"
+    iterations: int
+    wall_time_ms: float
+    model_version: int
+
+    @property
+    def to_apply(self) -> FloatArray:
+        """The inputs to apply before planning again, shape (apply_count, input_dim)."""
+        return self.inputs[: self.apply_count]
+
+
+@dataclasses.dataclass(frozen=True)
+class AddResult:
+    """What one AddData call (``Session.add``) or one closed stream stored.
+
+    ``stored`` transitions were new, ``duplicates`` had a sequence number the
+    session already held (a retry: not stored again); the session holds
+    ``sample_count`` transitions at ``model_version`` afterwards.
+    ``first_sequence`` and ``last_sequence`` are the smallest and largest sequence
+    numbers sent (None if nothing was sent)."""
+
+    stored: int
+    duplicates: int
+    sample_count: int
+    model_version: int
+    first_sequence: Optional[int] = None
+    last_sequence: Optional[int] = None
+
+    @property
+    def sent(self) -> int:
+        """Transitions the server acknowledged: stored + duplicates."""
+        return self.stored + self.duplicates
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Samples:
+    """A session's stored transitions in sequence order (from ExportSession):
+    ``states`` and ``next_states`` (n, state_dim), ``inputs`` (n, input_dim),
+    ``sequences`` (n,) int64, ``timestamps`` (n,) seconds since the epoch."""
+
+    states: FloatArray
+    inputs: FloatArray
+    next_states: FloatArray
+    sequences: IntArray
+    timestamps: FloatArray
+
+    def __len__(self) -> int:
+        return len(self.sequences)
+
+
+# ------------------------------------------------------------------------ config
+
+
+def _friendly_dict(config: Mapping[str, Any]) -> dict:
+    """Accepts "rec" for STRATEGY_REC, "delta" for TARGET_DELTA and [lo, hi] pairs
+    for intervals, then leaves the rest to json_format."""
+    result = dict(config)
+    for key, prefix in _ENUM_PREFIX.items():
+        value = result.get(key)
+        if isinstance(value, str) and not value.upper().startswith(prefix):
+            result[key] = prefix + value.upper()
+    for key in _INTERVAL_FIELDS:
+        if key in result:
+            result[key] = [
+                {"lower": b[0], "upper": b[1]} if isinstance(b, (list, tuple)) else b
+                for b in result[key]
+            ]
+    return result
+
+
+def session_config(config: ConfigLike) -> config_pb.SessionConfig:
+    """A ``SessionConfig`` from any of:
+
+    - a ``SessionConfig`` (copied) or a ``SimConfig`` (its ``session``);
+    - a dict in proto field names, e.g. ``{"state_dim": 2, "input_dim": 1,
+      "input_bounds": [[-3, 3]], "noise": {"variance": 0.05, "fit": True},
+      "kernel": {"fit": True}, "strategy": "rec", "horizon": 15}``;
+    - a textproto string of a SessionConfig or of a SimConfig;
+    - a path (``str`` or ``pathlib.Path``) to such a textproto file, e.g.
+      ``sim/configs/pendulum.textproto``.
+
+    Raises ``ValueError`` if it is none of these. The server validates the values.
+    """
+    if isinstance(config, config_pb.SessionConfig):
+        copy = config_pb.SessionConfig()
+        copy.CopyFrom(config)
+        return copy
+    if isinstance(config, sim_pb.SimConfig):
+        return session_config(config.session)
+    if isinstance(config, Mapping):
+        message = config_pb.SessionConfig()
+        try:
+            json_format.ParseDict(_friendly_dict(config), message)
+        except json_format.ParseError as e:
+            raise ValueError(f"bad session config: {e}") from e
+        return message
+    if isinstance(config, os.PathLike) or (
+        isinstance(config, str) and "\n" not in config and os.path.isfile(config)
+    ):
+        with open(config) as f:
+            return session_config(f.read())
+    if isinstance(config, str):
+        errors = []
+        for kind in (config_pb.SessionConfig, sim_pb.SimConfig):
+            parsed = kind()
+            try:
+                text_format.Parse(config, parsed)
+            except text_format.ParseError as e:
+                errors.append(f"as {kind.__name__}: {e}")
+                continue
+            return session_config(parsed)
+        raise ValueError("not a SessionConfig or SimConfig textproto: " + "; ".join(errors))
+    raise ValueError(f"cannot make a SessionConfig from {type(config).__name__}")
+
+
+def session_archive(archive: ArchiveLike) -> pb.SessionArchive:
+    """A ``SessionArchive`` from the message, its bytes or the path of such a file."""
+    if isinstance(archive, (str, os.PathLike)):
+        archive = pathlib.Path(archive).read_bytes()
+    if isinstance(archive, (bytes, bytearray)):
+        return pb.SessionArchive.FromString(bytes(archive))
+    return archive
+
+
+# ------------------------------------------------------------ names and headers
+
+
+def full_name(name: str) -> str:
+    """ "sessions/{id}" from "{id}" or "sessions/{id}"."""
+    return name if name.startswith("sessions/") else "sessions/" + name
+
+
+def session_id(name: str) -> str:
+    return name.split("/", 1)[-1]
+
+
+def session_metadata(name_or_id: str) -> Metadata:
+    """The routing header for calls about a session (see SESSION_HEADER)."""
+    return ((SESSION_HEADER, session_id(name_or_id)),) if name_or_id else None
+
+
+# ------------------------------------------------------------------------ arrays
+
+
+def rows(values: npt.ArrayLike, columns: int, what: str) -> FloatArray:
+    """values as a 2-D float64 array with `columns` columns (a 1-D array is one row)."""
+    array = np.asarray(values, dtype=np.float64)
+    if array.ndim == 1:
+        array = array.reshape(1, -1)
+    if array.ndim != 2 or array.shape[1] != columns:
+        raise ValueError(f"{what}: expected shape (n, {columns}), got {np.shape(values)}")
+    return array
+
+
+def transitions(state_dim: int, input_dim: int, next_sequence: int,
+                states: npt.ArrayLike, inputs: npt.ArrayLike, next_states: npt.ArrayLike,
+                sequences: Optional[npt.ArrayLike] = None,
+                timestamps: Optional[npt.ArrayLike] = None,
+                ) -> Tuple[List[pb.Transition], int]:
+    """The Transition messages for rows of (x, u, x_next), numbered from
+    `next_sequence` unless `sequences` is given (timestamps default to now), and the
+    next sequence number to use after them."""
+    x = rows(states, state_dim, "states")
+    u = rows(inputs, input_dim, "inputs")
+    y = rows(next_states, state_dim, "next_states")
+    n = len(x)
+    if len(u) != n or len(y) != n:
+        raise ValueError(f"states, inputs, next_states have {n}, {len(u)}, {len(y)} rows")
+    seq = (np.arange(next_sequence, next_sequence + n, dtype=np.int64) if sequences is None
+           else np.asarray(sequences, dtype=np.int64).reshape(-1))
+    stamps = (np.full(n, time.time()) if timestamps is None
+              else np.asarray(timestamps, dtype=np.float64).reshape(-1))
+    if len(seq) != n or len(stamps) != n:
+        raise ValueError("sequences and timestamps need one entry per transition")
+    if n:
+        next_sequence = max(next_sequence, int(seq.max()) + 1)
+    messages = [
+        pb.Transition(state=x[i], input=u[i], next_state=y[i],
+                      sequence=int(seq[i]), timestamp_s=float(stamps[i]))
+        for i in range(n)
+    ]
+    return messages, next_sequence
+
+
+def add_requests(name: str, items: Sequence[pb.Transition],
+                 batch_size: int) -> List[pb.AddDataRequest]:
+    """One AddData stream's messages: `batch_size` transitions each (at least one
+    message, so that an empty add still names the session)."""
+    if batch_size < 1:
+        raise ValueError("batch_size must be at least 1")
+    return [
+        pb.AddDataRequest(session=name, transitions=items[i:i + batch_size])
+        for i in range(0, max(len(items), 1), batch_size)
+    ]
+
+
+def add_result(reply: Union[pb.AddDataResponse, pb.AddDataAck],
+               items: Iterable[pb.Transition]) -> AddResult:
+    sequences = [t.sequence for t in items]
+    return AddResult(
+        stored=int(reply.stored), duplicates=int(reply.duplicates),
+        sample_count=int(reply.sample_count), model_version=int(reply.model_version),
+        first_sequence=min(sequences) if sequences else None,
+        last_sequence=max(sequences) if sequences else None)
+
+
+def predict_request(name: str, state_dim: int, input_dim: int,
+                    z: Optional[npt.ArrayLike], states: Optional[npt.ArrayLike],
+                    inputs: Optional[npt.ArrayLike],
+                    include_noise: bool) -> Tuple[pb.PredictRequest, int]:
+    """The PredictRequest for `z` (n, state_dim + input_dim), or `states` and
+    `inputs`, and n."""
+    if z is None:
+        if states is None or inputs is None:
+            raise ValueError("give z, or states and inputs")
+        x = rows(states, state_dim, "states")
+        u = rows(inputs, input_dim, "inputs")
+        if len(x) != len(u):
+            raise ValueError("states and inputs need the same number of rows")
+        z = np.hstack([x, u])
+    points = rows(z, state_dim + input_dim, "z")
+    request = pb.PredictRequest(session=name, inputs=points.reshape(-1),
+                                include_noise=include_noise)
+    return request, len(points)
+
+
+def prediction(reply: pb.PredictResponse, n: int, state_dim: int) -> Prediction:
+    shape = (n, state_dim)
+    return Prediction(
+        mean=np.asarray(reply.mean, dtype=np.float64).reshape(shape),
+        variance=np.asarray(reply.variance, dtype=np.float64).reshape(shape),
+        model_version=int(reply.model_version),
+    )
+
+
+def plan_request(name: str, state_dim: int, state: npt.ArrayLike) -> pb.PlanInputsRequest:
+    x = rows(state, state_dim, "state")
+    if len(x) != 1:
+        raise ValueError("plan takes one state")
+    return pb.PlanInputsRequest(session=name, state=x[0])
+
+
+def plan(reply: pb.PlanInputsResponse, state_dim: int, input_dim: int) -> Plan:
+    def matrix(values: Iterable[float], columns: int) -> FloatArray:
+        return np.asarray(values, dtype=np.float64).reshape(-1, columns)
+
+    return Plan(
+        inputs=matrix(reply.inputs, input_dim),
+        predicted_states=matrix(reply.predicted_states, state_dim),
+        predicted_variances=matrix(reply.predicted_variances, state_dim),
+        horizon=int(reply.horizon),
+        apply_count=int(reply.apply_count),
+        objective=float(reply.objective),
+        solver_status=pb.SolverStatus.Name(reply.solver_status),
+        iterations=int(reply.iterations),
+        wall_time_ms=float(reply.wall_time_ms),
+        model_version=int(reply.model_version),
+    )
+
+
+def samples(archive: pb.SessionArchive) -> Samples:
+    """The samples of an archive as arrays (shapes from its config, so an empty
+    session gives (0, state_dim) etc.)."""
+    dx, du = archive.config.state_dim, archive.config.input_dim
+    items = archive.samples
+
+    def matrix(field: str, columns: int) -> FloatArray:
+        values = [v for t in items for v in getattr(t, field)]
+        return np.asarray(values, dtype=np.float64).reshape(len(items), columns)
+
+    return Samples(
+        states=matrix("state", dx),
+        inputs=matrix("input", du),
+        next_states=matrix("next_state", dx),
+        sequences=np.asarray([t.sequence for t in items], dtype=np.int64),
+        timestamps=np.asarray([t.timestamp_s for t in items], dtype=np.float64),
+    )
+
+
+# ------------------------------------------------------------------------ health
+
+
+HEALTH_CHECK_METHOD = "/grpc.health.v1.Health/Check"
+
+
+def health_request(service: str = "") -> bytes:
+    """HealthCheckRequest { string service = 1; } encoded by hand (no health stubs)."""
+    data = service.encode()
+    return b"" if not data else b"\x0a" + _varint(len(data)) + data
+
+
+def health_status(reply: bytes) -> str:
+    """The status name in a HealthCheckResponse { ServingStatus status = 1; }."""
+    status, i = 0, 0
+    while i < len(reply):
+        key, i = _read_varint(reply, i)
+        if key != 0x08:
+            raise ValueError(f"unexpected field in HealthCheckResponse: {key}")
+        status, i = _read_varint(reply, i)
+    return _SERVING_STATUS.get(status, f"STATUS_{status}")
+
+
+def _varint(value: int) -> bytes:
+    out = bytearray()
+    while True:
+        byte = value & 0x7F
+        value >>= 7
+        if value:
+            out.append(byte | 0x80)
+        else:
+            out.append(byte)
+            return bytes(out)
+
+
+def _read_varint(data: bytes, i: int) -> Tuple[int, int]:
+    value, shift = 0, 0
+    while True:
+        if i >= len(data):
+            raise ValueError("truncated varint")
+        byte = data[i]
+        i += 1
+        value |= (byte & 0x7F) << shift
+        if not byte & 0x80:
+            return value, i
+        shift += 7
+
+
+# ----------------------------------------------------------------------- channel
+
+
+def channel_options(max_message_mb: int) -> List[Tuple[str, int]]:
+    size = max_message_mb * 1024 * 1024
+    return [("grpc.max_receive_message_length", size),
+            ("grpc.max_send_message_length", size)]
+
+
+def channel_credentials(tls_ca: Optional[Union[str, "os.PathLike[str]"]],
+                        tls_client_cert: Optional[Union[str, "os.PathLike[str]"]],
+                        tls_client_key: Optional[Union[str, "os.PathLike[str]"]],
+                        ) -> Optional[grpc.ChannelCredentials]:
+    """None for plaintext, else TLS (mutual with the client certificate and key)."""
+    if (tls_client_cert is None) != (tls_client_key is None):
+        raise ValueError("tls_client_cert and tls_client_key go together")
+    if tls_client_cert is not None and tls_ca is None:
+        raise ValueError("tls_client_cert needs tls_ca (mutual TLS runs over TLS)")
+    if tls_ca is None:
+        return None
+
+    def read(path: Union[str, "os.PathLike[str]", None]) -> Optional[bytes]:
+        return None if path is None else pathlib.Path(path).read_bytes()
+
+    return grpc.ssl_channel_credentials(
+        root_certificates=read(tls_ca), private_key=read(tls_client_key),
+        certificate_chain=read(tls_client_cert))
+
+
+def auth_token(token: Optional[str]) -> str:
+    """The bearer token to send: `token`, else $EXCITE_AUTH_TOKEN ("" sends none)."""
+    return os.environ.get(AUTH_TOKEN_ENV, "") if token is None else token
+
+
+def auth_header(token: str) -> Tuple[str, str]:
+    return ("authorization", f"Bearer {token}")
