@@ -14,6 +14,8 @@ PACKAGES=(
   liblapack-dev libblas-dev  # ipopt.pc links -llapack -lblas (only recommended)
   # Python client and its tests (Debian's /usr/bin/python3; nothing from PyPI)
   python3-grpcio python3-protobuf python3-numpy python3-pytest python3-yaml
+  python3-venv python3-setuptools python3-wheel  # pip install client/python into a venv, offline
+  python3-mypy  # type check of the Python client (ctest python_typecheck)
   python3-matplotlib  # bench/paper: the paper-table runner's plots
   openssl                    # TLS tests make their certificates at test time
   clang libclang-rt-14-dev   # tests/fuzz: libFuzzer target (config_fuzz_30s)

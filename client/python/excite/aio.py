@@ -39,10 +39,8 @@ from excite.errors import AioCheckedStub
 PathLike = Union[str, "os.PathLike[str]"]
 
 
-class _BearerToken(grpc.aio.UnaryUnaryClientInterceptor,
-                   grpc.aio.StreamUnaryClientInterceptor):
-    """Adds "authorization: Bearer <token>" to every unary and client-streaming
-    call."""
+class _WithToken:
+    """Adds "authorization: Bearer <token>" to the call's metadata."""
 
     def __init__(self, token: str) -> None:
         self._header = _common.auth_header(token)
@@ -53,13 +51,23 @@ class _BearerToken(grpc.aio.UnaryUnaryClientInterceptor,
         return grpc.aio.ClientCallDetails(details.method, details.timeout, metadata,
                                           details.credentials, details.wait_for_ready)
 
+
+# grpc.aio files an interceptor under one kind of call only: one class per kind.
+class _UnaryToken(_WithToken, grpc.aio.UnaryUnaryClientInterceptor):
     async def intercept_unary_unary(self, continuation: Any, details: Any,
                                     request: Any) -> Any:
         return await continuation(self._with_token(details), request)
 
+
+class _StreamUnaryToken(_WithToken, grpc.aio.StreamUnaryClientInterceptor):
     async def intercept_stream_unary(self, continuation: Any, details: Any,
                                      request_iterator: Any) -> Any:
         return await continuation(self._with_token(details), request_iterator)
+
+
+def _token_interceptors(token: str) -> Optional[List[Any]]:
+    """Unary and client-streaming calls (all that this client makes) send the token."""
+    return [_UnaryToken(token), _StreamUnaryToken(token)] if token else None
 
 
 class Client:
@@ -76,7 +84,7 @@ class Client:
         options = _common.channel_options(max_message_mb)
         credentials = _common.channel_credentials(tls_ca, tls_client_cert, tls_client_key)
         token = _common.auth_token(auth_token)
-        interceptors = [_BearerToken(token)] if token else None
+        interceptors = _token_interceptors(token)
         self.channel: grpc.aio.Channel = (
             grpc.aio.insecure_channel(target, options=options, interceptors=interceptors)
             if credentials is None else

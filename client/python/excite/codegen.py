@@ -165,11 +165,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help="the excite/v1 directory to write (default: %(default)s)")
     parser.add_argument("--check", action="store_true",
                         help="only say whether the stubs are current (exit 1 if not)")
+    parser.add_argument("--if_stale", action="store_true",
+                        help="generate only if the stubs are missing or stale")
     args = parser.parse_args(argv)
     if args.check:
         current = is_current(args.proto_dir, args.out)
         print(f"stubs in {args.out} are {'current' if current else 'missing or stale'}")
         return 0 if current else 1
+    if args.if_stale:
+        generated = ensure_stubs(args.proto_dir, args.out)
+        print(f"stubs in {args.out} {'generated' if generated else 'are current'}")
+        return 0
     names = generate(args.proto_dir, args.out)
     print(f"{len(names)} files written to {args.out}")
     return 0
