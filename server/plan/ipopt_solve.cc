@@ -7,16 +7,11 @@
 
 namespace excite::plan {
 
-std::mutex& IpoptMutex() {
-  static std::mutex* const mutex = new std::mutex;
-  return *mutex;
-}
-
 IpoptOutcome SolveTnlp(const Ipopt::SmartPtr<Ipopt::TNLP>& nlp,
                        const IpoptSettings& settings) {
   IpoptOutcome outcome;
   std::ostringstream captured;
-  std::lock_guard<std::mutex> lock(IpoptMutex());
+  TimedIpoptLock lock;
   try {
     Ipopt::SmartPtr<Ipopt::IpoptApplication> app = new Ipopt::IpoptApplication();
     Ipopt::SmartPtr<Ipopt::OptionsList> options = app->Options();

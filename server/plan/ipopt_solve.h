@@ -2,17 +2,13 @@
 #define EXCITE_SERVER_PLAN_IPOPT_SOLVE_H_
 
 #include <IpTNLP.hpp>
-#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
 
-namespace excite::plan {
+#include "server/plan/ipopt_lock.h"
 
-// The one process-wide lock held across every IpoptApplication's create,
-// Initialize, OptimizeTNLP and destroy: MUMPS in Ipopt 3.11 is not thread-safe.
-// SolveTnlp() takes it; code that drives Ipopt itself must take it too.
-std::mutex& IpoptMutex();
+namespace excite::plan {
 
 // Options of one Ipopt solve. Everything is passed in code: no ipopt.opt is read,
 // nothing is printed (print_level 0, no banner) unless `log` asks for it.

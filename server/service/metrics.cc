@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <exception>
+#include <initializer_list>
 #include <utility>
 #include <vector>
 
@@ -16,6 +17,7 @@
 #include "prometheus/metric_family.h"
 #include "prometheus/text_serializer.h"
 #include "server/service/excite_server.h"
+#include "server/service/process_metrics.h"
 
 namespace excite::service {
 namespace {
@@ -136,6 +138,8 @@ class CallbackGauges final : public prometheus::Collectable {
 Metrics::Metrics()
     : registry_(std::make_shared<prometheus::Registry>()),
       gauges_(std::make_shared<CallbackGauges>()),
+      process_(std::make_shared<ProcessCollector>()),
+      build_and_lock_(std::make_shared<BuildAndLockCollector>()),
       rpc_total_(prometheus::BuildCounter()
                      .Name("excite_rpc_total")
                      .Help("RPCs finished, by method and code.")
@@ -201,8 +205,12 @@ void Metrics::AddGauge(const std::string& name, const std::string& help,
 
 std::string Metrics::Render() const {
   std::vector<prometheus::MetricFamily> families = registry_->Collect();
-  for (prometheus::MetricFamily& family : gauges_->Collect()) {
-    families.push_back(std::move(family));
+  for (const prometheus::Collectable* more :
+       std::initializer_list<const prometheus::Collectable*>{
+           gauges_.get(), process_.get(), build_and_lock_.get()}) {
+    for (prometheus::MetricFamily& family : more->Collect()) {
+      families.push_back(std::move(family));
+    }
   }
   return prometheus::TextSerializer().Serialize(families);
 }
@@ -210,6 +218,8 @@ std::string Metrics::Render() const {
 void Metrics::ExposeOn(prometheus::Exposer* exposer) {
   exposer->RegisterCollectable(registry_);
   exposer->RegisterCollectable(gauges_);
+  exposer->RegisterCollectable(process_);
+  exposer->RegisterCollectable(build_and_lock_);
 }
 
 std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>

@@ -17,6 +17,8 @@
 namespace excite::service {
 
 class CallbackGauges;
+class ProcessCollector;
+class BuildAndLockCollector;
 
 // Process metrics, kept in a prometheus-cpp registry:
 //   excite_rpc_total{method,code}                 counter
@@ -29,7 +31,8 @@ class CallbackGauges;
 //                                                 deadline or cancellation)
 //   excite_store_write_seconds{op}                histogram (durable store writes)
 //   gauges registered with AddGauge, read at every scrape (sessions, samples,
-//   memory).
+//   memory)
+//   process_*, excite_build_info, excite_ipopt_lock_*   (process_metrics.h)
 // Thread-safe.
 class Metrics {
  public:
@@ -61,6 +64,8 @@ class Metrics {
  private:
   std::shared_ptr<prometheus::Registry> registry_;
   std::shared_ptr<CallbackGauges> gauges_;
+  std::shared_ptr<ProcessCollector> process_;
+  std::shared_ptr<BuildAndLockCollector> build_and_lock_;
   prometheus::Family<prometheus::Counter>& rpc_total_;
   prometheus::Family<prometheus::Histogram>& rpc_latency_;
   prometheus::Family<prometheus::Histogram>& store_writes_;

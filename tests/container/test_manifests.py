@@ -4,8 +4,12 @@ manifests agree with each other and with the binaries' flags (no cluster needed)
 Run: /usr/bin/python3 -m pytest tests/container/test_manifests.py (ctest label deploy).
 """
 
+import json
+import os
 import pathlib
 import re
+import socket
+import subprocess
 
 import pytest
 import yaml
@@ -121,6 +125,38 @@ def test_compose_stack():
 
 # --- Kubernetes ---------------------------------------------------------------------
 
+def secret_file(path, mounts, volumes):
+    """(Secret name, key) of the file at `path` inside a container, or None."""
+    directory, name = path.rsplit("/", 1)
+    volume = volumes.get(mounts.get(directory))
+    if volume is None or "secret" not in volume:
+        return None
+    items = {i["path"]: i["key"] for i in volume["secret"].get("items", [])}
+    return volume["secret"]["secretName"], (items.get(name) if items else name)
+
+
+def test_secrets_come_from_the_generator_and_make_secrets_makes_its_files(tmp_path):
+    kustomization, _ = k8s_documents()
+    generated = {g["name"]: g for g in kustomization["secretGenerator"]}
+    assert set(generated) == {"excite-auth", "excite-tls"}
+    keys = {name: dict(f.split("=", 1) for f in g["files"]) for name, g in generated.items()}
+    assert set(keys["excite-tls"]) == {"tls.crt", "tls.key", "ca.crt"}
+    assert set(keys["excite-auth"]) == {"token"}
+    # The script writes exactly the files the generator reads, and never overwrites.
+    out = tmp_path / "secrets"
+    subprocess.run(["bash", str(K8S / "make-secrets.sh"), "ns1", str(out)], check=True,
+                   capture_output=True)
+    for files in keys.values():
+        for source in files.values():
+            assert source.startswith("secrets/")
+            assert (out / source[len("secrets/"):]).stat().st_size > 0, source
+    assert (out / "tls.key").stat().st_mode & 0o077 == 0
+    again = subprocess.run(["bash", str(K8S / "make-secrets.sh"), "ns1", str(out)],
+                           capture_output=True, text=True)
+    assert again.returncode != 0 and "already holds secrets" in again.stderr
+    assert "/deploy/k8s/secrets/" in (REPO / ".gitignore").read_text().split()
+
+
 def test_kustomization_lists_existing_files_and_names_the_image():
     kustomization, docs = k8s_documents()
     assert kustomization["kind"] == "Kustomization"
@@ -150,21 +186,39 @@ def test_statefulset():
     assert container["securityContext"]["allowPrivilegeEscalation"] is False
     assert container["securityContext"]["capabilities"]["drop"] == ["ALL"]
     assert {"name": "grpc", "containerPort": PORT, "protocol": "TCP"} in container["ports"]
+    # Probes: excite-health over TLS on the container port, trusting the CA of the
+    # mounted TLS Secret (the kubelet's own gRPC probe speaks plaintext only).
+    mounts = {m["mountPath"]: m["name"] for m in container["volumeMounts"]}
+    volumes = {v["name"]: v for v in pod["volumes"]}
     for probe in ("livenessProbe", "readinessProbe", "startupProbe"):
-        assert container[probe]["grpc"]["port"] == PORT, probe
+        command = container[probe]["exec"]["command"]
+        assert command[0] == "excite-health", probe
+        assert flag_value(command, "server") == f"127.0.0.1:{PORT}", probe
+        assert secret_file(flag_value(command, "tls_ca"), mounts, volumes) == ("excite-tls", "ca.crt")
     for kind in ("requests", "limits"):
         assert {"cpu", "memory"} <= set(container["resources"][kind]), kind
 
     env = {e["name"]: e["value"] for e in container["env"]}
     assert {n[len("FLAGS_"):] for n in env} <= image_env_flags()
     assert env["FLAGS_data_dir"] == DATA_DIR and env["FLAGS_listen"].endswith(f":{PORT}")
+    # TLS and the token from the generated Secrets, never a literal in the manifest.
+    assert secret_file(env["FLAGS_tls_cert"], mounts, volumes) == ("excite-tls", "tls.crt")
+    assert secret_file(env["FLAGS_tls_key"], mounts, volumes) == ("excite-tls", "tls.key")
+    assert secret_file(env["FLAGS_auth_token_file"], mounts, volumes) == ("excite-auth", "token")
+    assert not any("TOKEN" in e["name"] for e in container["env"])
+    # Metrics: the port Prometheus is told about is the one the server listens on.
+    metrics_port = int(env["FLAGS_metrics_listen"].rsplit(":", 1)[1])
+    assert {"name": "metrics", "containerPort": metrics_port, "protocol": "TCP"} in container["ports"]
+    annotations = spec["template"]["metadata"]["annotations"]
+    assert annotations["prometheus.io/scrape"] == "true"
+    assert annotations["prometheus.io/port"] == str(metrics_port)
+    assert annotations["prometheus.io/path"] == "/metrics"
     # The memory budget is three quarters of the container's memory limit (the
     # server's own default from the cgroup, spelled out): the rest is the process.
     limit = container["resources"]["limits"]["memory"]
     assert limit.endswith("Gi") or limit.endswith("Mi"), limit
     limit_mib = int(limit[:-2]) * (1024 if limit.endswith("Gi") else 1)
     assert int(env["FLAGS_memory_budget_mb"]) == limit_mib * 3 // 4
-    mounts = {m["mountPath"]: m["name"] for m in container["volumeMounts"]}
     (claim,) = spec["volumeClaimTemplates"]
     assert mounts[DATA_DIR] == claim["metadata"]["name"]
     assert "/tmp" in mounts  # writable scratch next to the read-only root
@@ -199,6 +253,16 @@ def test_plant_job():
     (wait,) = pod["initContainers"]
     assert wait["command"][0] == "excite-health"
     assert flag_value(wait["command"], "server") == f"{host}:{PORT}"
+    # Both trust the server's CA and only that: the plant's pod never gets its key.
+    volumes = {v["name"]: v for v in pod["volumes"]}
+    for c in (sim, wait):
+        mounts = {m["mountPath"]: m["name"] for m in c["volumeMounts"]}
+        assert secret_file(flag_value(c["command"], "tls_ca"), mounts, volumes) == ("excite-tls", "ca.crt")
+    for v in volumes.values():
+        if v.get("secret", {}).get("secretName") == "excite-tls":
+            assert [i["key"] for i in v["secret"]["items"]] == ["ca.crt"]
+    (token,) = [e for e in sim["env"] if e["name"] == "EXCITE_AUTH_TOKEN"]
+    assert token["valueFrom"]["secretKeyRef"] == {"name": "excite-auth", "key": "token"}
     for c in (sim, wait):
         assert c["securityContext"]["readOnlyRootFilesystem"] is True
         assert {"cpu", "memory"} <= set(c["resources"]["limits"])
@@ -208,3 +272,78 @@ def test_plant_job():
 def test_every_manifest_is_listed_in_the_kustomization(path):
     kustomization, _ = k8s_documents()
     assert path == "kustomization.yaml" or path in kustomization["resources"]
+
+
+# --- The manifests' security settings against the real binaries ----------------------
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+BINARY_ENV = {"excite-server": "EXCITE_SERVER_BIN", "excite-sim": "EXCITE_SIM_BIN",
+              "excite": "EXCITE_CLI_BIN", "excite-health": "EXCITE_HEALTH_BIN"}
+
+
+def binary(name):
+    return os.environ[BINARY_ENV[name]]
+
+
+@pytest.mark.skipif(not all(os.environ.get(v) for v in BINARY_ENV.values()),
+                    reason="set " + ", ".join(BINARY_ENV.values()) + " (ctest does)")
+def test_server_probe_and_plant_work_with_the_generated_secrets(tmp_path):
+    """The StatefulSet's flags, its probe and the Job's commands, run as written but on
+    loopback, with make-secrets.sh's files where the Secrets are mounted: TLS verifies
+    (the probe dials 127.0.0.1), the token is required, the plant explores."""
+    secrets = tmp_path / "secrets"
+    subprocess.run(["bash", str(K8S / "make-secrets.sh"), "default", str(secrets)], check=True,
+                   capture_output=True)
+    _, docs = k8s_documents()
+    port = free_port()
+
+    def local(arg):
+        """A manifest argument with in-cluster paths and addresses made local."""
+        for mount in ("/etc/excite/tls", "/etc/excite/auth"):
+            arg = arg.replace(mount, str(secrets))
+        arg = arg.replace(CONFIG_DIR, str(REPO / "sim" / "configs") + "/")
+        arg = arg.replace("/results/", str(tmp_path) + "/")
+        return arg.replace("excite:50051", f"127.0.0.1:{port}").replace(
+            "127.0.0.1:50051", f"127.0.0.1:{port}")
+
+    (server,) = one(docs, "StatefulSet")["spec"]["template"]["spec"]["containers"]
+    flags = {e["name"][len("FLAGS_"):]: local(e["value"]) for e in server["env"]}
+    flags.update(listen=f"127.0.0.1:{port}", data_dir=str(tmp_path / "data"),
+                 metrics_listen="127.0.0.1:0")
+    log = open(tmp_path / "server.log", "w")
+    process = subprocess.Popen([binary("excite-server")] + [f"--{k}={v}" for k, v in flags.items()],
+                               stdout=log, stderr=subprocess.STDOUT)
+    try:
+        probe = [local(a) for a in server["readinessProbe"]["exec"]["command"]]
+        probe = [binary(probe[0])] + probe[1:] + ["--wait_s=60"]
+        assert subprocess.run(probe, capture_output=True).returncode == 0, (tmp_path / "server.log").read_text()
+
+        token = (secrets / "token").read_text().strip()
+        listing = [binary("excite"), f"--server=127.0.0.1:{port}", f"--tls_ca={secrets}/ca.crt",
+                   "sessions", "list"]
+        without = subprocess.run(listing, capture_output=True, text=True,
+                                 env={k: v for k, v in os.environ.items() if k != "EXCITE_AUTH_TOKEN"})
+        assert without.returncode != 0 and "UNAUTHENTICATED" in without.stderr, without.stderr
+        assert subprocess.run(listing, capture_output=True, env=dict(os.environ, EXCITE_AUTH_TOKEN=token)).returncode == 0
+
+        pod = one(docs, "Job")["spec"]["template"]["spec"]
+        (wait,) = pod["initContainers"]
+        command = [local(a) for a in wait["command"]]
+        assert subprocess.run([binary(command[0])] + command[1:], capture_output=True).returncode == 0
+        (sim,) = pod["containers"]
+        command = [local(a) for a in sim["command"] if not a.startswith("--samples=")] + ["--samples=4"]
+        secret_env = {e["name"]: token for e in sim["env"] if "secretKeyRef" in e.get("valueFrom", {})}
+        plant = subprocess.run([binary(command[0])] + command[1:], capture_output=True, text=True,
+                               env=dict(os.environ, **secret_env), timeout=120)
+        assert plant.returncode == 0, plant.stdout + plant.stderr
+        summary = json.loads((tmp_path / "pendulum-rec.json").read_text())
+        assert summary["samples"] >= 4, summary
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+        log.close()

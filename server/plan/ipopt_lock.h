@@ -1,0 +1,43 @@
+#ifndef EXCITE_SERVER_PLAN_IPOPT_LOCK_H_
+#define EXCITE_SERVER_PLAN_IPOPT_LOCK_H_
+
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+
+namespace excite::plan {
+
+// The one process-wide lock held across every IpoptApplication's create,
+// Initialize, OptimizeTNLP and destroy: MUMPS in Ipopt 3.11 is not thread-safe.
+// SolveTnlp() takes it (through TimedIpoptLock); code that drives Ipopt itself
+// must take it too.
+std::mutex& IpoptMutex();
+
+// Holds IpoptMutex() for its lifetime and adds the wait for it and the hold to
+// the process's IpoptLockTotals.
+class TimedIpoptLock {
+ public:
+  TimedIpoptLock();
+  ~TimedIpoptLock();
+  TimedIpoptLock(const TimedIpoptLock&) = delete;
+  TimedIpoptLock& operator=(const TimedIpoptLock&) = delete;
+
+ private:
+  std::chrono::steady_clock::time_point taken_;
+};
+
+// What TimedIpoptLocks spent on IpoptMutex() since the process started: how often
+// they took it, how long they waited for it and how long they held it. The held
+// time per second of wall time is the share of one core that planning is
+// serialised on.
+struct IpoptLockTotals {
+  int64_t acquisitions = 0;
+  double wait_seconds = 0;
+  double held_seconds = 0;
+};
+// Thread-safe; the three values are read one after the other, not as one snapshot.
+IpoptLockTotals ReadIpoptLockTotals();
+
+}  // namespace excite::plan
+
+#endif  // EXCITE_SERVER_PLAN_IPOPT_LOCK_H_
