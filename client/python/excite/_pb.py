@@ -9,6 +9,7 @@ warning says to regenerate.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import warnings
 
@@ -32,21 +33,27 @@ except ModuleNotFoundError as error:  # pragma: no cover - depends on the tree
 
 def _warn_if_stale() -> None:
     """In a checkout: warns if proto/ changed after the stubs were generated in place
-    (cheap: a few small files hashed; nothing happens in an installed package, whose
-    stubs have no stamp)."""
-    from excite import codegen
-
-    stub_dir = os.path.dirname(os.path.abspath(pb.__file__))
-    stamp = os.path.join(stub_dir, codegen.STAMP_NAME)
+    (a few small files hashed). Stubs built by setup.py have no stamp: nothing to do
+    in an installed package."""
+    stamp = os.path.join(os.path.dirname(os.path.abspath(pb.__file__)), ".proto-sha256")
+    if not os.path.isfile(stamp):
+        return
+    # codegen.py loaded by path under a private name, not as excite.codegen (which
+    # would upset `python3 -m excite.codegen`, which imports this module first).
+    spec = importlib.util.spec_from_file_location(
+        "_excite_codegen_check", os.path.join(os.path.dirname(__file__), "codegen.py"))
+    assert spec is not None and spec.loader is not None
+    codegen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(codegen)
     root = codegen.proto_dir()
-    if root is None or not os.path.isfile(stamp):
+    if root is None:
         return
     with open(stamp) as f:
         if f.read().strip() != codegen.digest(root):
             warnings.warn(
                 "excite: proto/ changed since the stubs in excite/v1 were generated; "
                 "regenerate them: /usr/bin/python3 client/python/excite/codegen.py",
-                stacklevel=3)
+                stacklevel=2)
 
 
 try:
