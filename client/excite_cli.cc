@@ -1,8 +1,9 @@
 // excite: command-line client of excite-server.
 //
-//   excite [--server=HOST:PORT] sessions list
+//   excite [--server=HOST:PORT] sessions list [--filter 'labels.KEY = "VALUE" AND ...']
 //   excite sessions get NAME
-//   excite sessions create --config FILE [--id ID]
+//   excite sessions create --config FILE [--id ID] [--display_name TEXT]
+//                          [--labels KEY=VALUE,...]
 //   excite sessions delete NAME
 //   excite predict --session NAME --z 'x1,..,u1,..[,x1,..]' [--include_noise]
 //   excite plan --session NAME --state 'x1,x2,..'
@@ -28,6 +29,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -47,6 +49,7 @@
 #include "common/usage.h"
 #include "google/protobuf/text_format.h"
 #include "google/protobuf/util/json_util.h"
+#include "google/protobuf/util/time_util.h"
 #include "server/service/config_text.h"
 
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "excite-server address HOST:PORT.");
@@ -57,6 +60,13 @@ ABSL_FLAG(std::string, z, "", "predict: comma-separated z = (x, u) points, row-m
 ABSL_FLAG(bool, include_noise, false, "predict: add the noise variance.");
 ABSL_FLAG(std::string, state, "", "plan: comma-separated current state.");
 ABSL_FLAG(int, page_size, 0, "sessions list: page size (0: server default).");
+ABSL_FLAG(std::string, filter, "",
+          "sessions list: only sessions whose labels match, e.g. "
+          "'labels.plant = \"pendulum\" AND labels.run:*'.");
+ABSL_FLAG(std::string, display_name, "", "sessions create: what a person calls it.");
+ABSL_FLAG(
+    std::vector<std::string>, labels, {},
+    "sessions create: comma-separated KEY=VALUE labels, e.g. plant=pendulum,lab=b12.");
 ABSL_FLAG(std::string, session_id, "",
           "import: id of the new session (default: the exported session's id).");
 ABSL_FLAG(int, timeout_s, 60, "Deadline of each call in seconds.");
@@ -155,8 +165,8 @@ int ListSessions(excite::client::ExciteClient& client) {
   int count = 0;
   excite::v1::ListSessionsResponse all;  // every page, for --output=json
   do {
-    absl::StatusOr<excite::v1::ListSessionsResponse> page =
-        client.ListSessions(absl::GetFlag(FLAGS_page_size), token);
+    absl::StatusOr<excite::v1::ListSessionsResponse> page = client.ListSessions(
+        absl::GetFlag(FLAGS_page_size), token, absl::GetFlag(FLAGS_filter));
     if (!page.ok()) return Fail(page.status());
     token = page->next_page_token();
     if (Json()) {
@@ -164,13 +174,19 @@ int ListSessions(excite::client::ExciteClient& client) {
       continue;
     }
     for (const excite::v1::Session& s : page->sessions()) {
+      // Labels in key order (a protobuf map has none).
+      const std::map<std::string, std::string> labels(s.labels().begin(),
+                                                      s.labels().end());
       std::printf(
-          "%-40s state_dim=%d input_dim=%d strategy=%s horizon=%d samples=%lld "
-          "model_version=%lld\n",
-          s.name().c_str(), s.config().state_dim(), s.config().input_dim(),
-          StrategyName(s.config().strategy()).c_str(), s.config().horizon(),
-          static_cast<long long>(s.sample_count()),
-          static_cast<long long>(s.model_version()));
+          "%-28s %-24s created=%s strategy=%s state_dim=%d input_dim=%d samples=%lld "
+          "labels=%s\n",
+          s.name().c_str(), absl::StrCat("\"", s.display_name(), "\"").c_str(),
+          s.has_create_time()
+              ? google::protobuf::util::TimeUtil::ToString(s.create_time()).c_str()
+              : "unknown",
+          StrategyName(s.config().strategy()).c_str(), s.config().state_dim(),
+          s.config().input_dim(), static_cast<long long>(s.sample_count()),
+          absl::StrJoin(labels, ",", absl::PairFormatter("=")).c_str());
       ++count;
     }
   } while (!token.empty());
@@ -217,14 +233,29 @@ int Sessions(excite::client::ExciteClient& client, const std::vector<std::string
     return 0;
   }
   if (verb == "create") {
-    if (args.size() != 2) return UsageError("sessions create --config FILE [--id ID]");
+    if (args.size() != 2) {
+      return UsageError(
+          "sessions create --config FILE [--id ID] [--display_name TEXT] [--labels "
+          "K=V,...]");
+    }
     if (absl::GetFlag(FLAGS_config).empty())
       return UsageError("sessions create: --config");
     absl::StatusOr<excite::v1::SessionConfig> config =
         excite::service::LoadSessionConfigFile(absl::GetFlag(FLAGS_config));
     if (!config.ok()) return LocalFail(config.status());
-    absl::StatusOr<excite::v1::Session> session =
-        client.CreateSession(*config, absl::GetFlag(FLAGS_id));
+    excite::v1::CreateSessionRequest request;
+    request.set_session_id(absl::GetFlag(FLAGS_id));
+    *request.mutable_config() = *std::move(config);
+    request.set_display_name(absl::GetFlag(FLAGS_display_name));
+    for (const std::string& label : absl::GetFlag(FLAGS_labels)) {
+      const std::vector<std::string> key_value =
+          absl::StrSplit(label, absl::MaxSplits('=', 1));
+      if (key_value.size() != 2) {
+        return UsageError(absl::StrCat("--labels: \"", label, "\" is not KEY=VALUE"));
+      }
+      (*request.mutable_labels())[key_value[0]] = key_value[1];
+    }
+    absl::StatusOr<excite::v1::Session> session = client.CreateSession(request);
     if (!session.ok()) return Fail(session.status());
     if (!Json()) std::printf("created %s\n", session->name().c_str());
     return PrintSession(*session);

@@ -116,11 +116,16 @@ absl::Status ExciteClient::WaitForReady(std::chrono::milliseconds timeout) {
 
 absl::StatusOr<v1::Session> ExciteClient::CreateSession(const v1::SessionConfig& config,
                                                         const std::string& session_id) {
-  grpc::ClientContext context;
-  Prepare(&context, options_.default_deadline);
   v1::CreateSessionRequest request;
   request.set_session_id(session_id);
   *request.mutable_config() = config;
+  return CreateSession(request);
+}
+
+absl::StatusOr<v1::Session> ExciteClient::CreateSession(
+    const v1::CreateSessionRequest& request) {
+  grpc::ClientContext context;
+  Prepare(&context, options_.default_deadline);
   v1::Session response;
   if (absl::Status s = FromGrpc(stub_->CreateSession(&context, request, &response));
       !s.ok()) {
@@ -143,12 +148,13 @@ absl::StatusOr<v1::Session> ExciteClient::GetSession(const std::string& name) {
 }
 
 absl::StatusOr<v1::ListSessionsResponse> ExciteClient::ListSessions(
-    int page_size, const std::string& page_token) {
+    int page_size, const std::string& page_token, const std::string& filter) {
   grpc::ClientContext context;
   Prepare(&context, options_.default_deadline);
   v1::ListSessionsRequest request;
   request.set_page_size(page_size);
   request.set_page_token(page_token);
+  request.set_filter(filter);
   v1::ListSessionsResponse response;
   if (absl::Status s = FromGrpc(stub_->ListSessions(&context, request, &response));
       !s.ok()) {

@@ -80,9 +80,13 @@ class ExciteClient {
 
   absl::StatusOr<v1::Session> CreateSession(const v1::SessionConfig& config,
                                             const std::string& session_id = "");
+  // With everything CreateSessionRequest holds (display name, labels).
+  absl::StatusOr<v1::Session> CreateSession(const v1::CreateSessionRequest& request);
   absl::StatusOr<v1::Session> GetSession(const std::string& name);
+  // `filter` as in ListSessionsRequest.filter (empty: every session).
   absl::StatusOr<v1::ListSessionsResponse> ListSessions(int page_size,
-                                                        const std::string& page_token);
+                                                        const std::string& page_token,
+                                                        const std::string& filter = "");
   absl::Status DeleteSession(const std::string& name);
   // One stream carrying `batches` as consecutive messages.
   absl::StatusOr<v1::AddDataResponse> AddData(

@@ -79,6 +79,8 @@ class Walker:
         self.lines += [f"### message `{name}`", "", doc, ""]
         if message.field:
             self.lines += ["| field | type | description |", "| --- | --- | --- |"]
+        # A map<K, V> field is a repeated synthetic XEntry message: shown as the map.
+        entries = {f"{name}.{m.name}": m for m in message.nested_type if m.options.map_entry}
         for i, field in enumerate(message.field):
             fdoc = comment(comments, path + [FIELD, i])
             if not fdoc:
@@ -86,10 +88,15 @@ class Walker:
             kind = field.type_name.rsplit(".", 1)[-1] if field.type_name else TYPE.get(
                 field.type, str(field.type))
             label = "repeated " if field.label == 3 else ""
+            entry = entries.get(field.type_name.lstrip(".").split(".", 2)[-1])
+            if entry is not None:
+                key, value = (TYPE.get(f.type, str(f.type)) for f in entry.field)
+                kind, label = f"map<{key}, {value}>", ""
             self.lines.append(f"| `{field.name}` = {field.number} | {label}`{kind}` | {fdoc} |")
         self.lines.append("")
         for i, nested in enumerate(message.nested_type):
-            self.message(comments, nested, path + [NESTED, i], name + ".")
+            if not nested.options.map_entry:
+                self.message(comments, nested, path + [NESTED, i], name + ".")
         for i, enum in enumerate(message.enum_type):
             self.enum(comments, enum, path + [NESTED_ENUM, i], name + ".")
 

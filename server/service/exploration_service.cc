@@ -134,7 +134,8 @@ grpc::Status ExplorationService::CreateSession(grpc::ServerContext* /*context*/,
       }
     }
     absl::StatusOr<std::shared_ptr<Session>> session =
-        registry_->Create(request->session_id(), request->config());
+        registry_->Create(request->session_id(), request->config(),
+                          request->display_name(), request->labels());
     if (!session.ok()) return session.status();
     *response = (*session)->Describe();
     Log(LogLevel::kInfo, absl::StrCat("created ", (*session)->name()));
@@ -158,8 +159,10 @@ grpc::Status ExplorationService::ListSessions(grpc::ServerContext* /*context*/,
                                               const v1::ListSessionsRequest* request,
                                               v1::ListSessionsResponse* response) {
   return RunRpc("ListSessions", "", [&]() -> absl::Status {
+    absl::StatusOr<LabelFilter> filter = LabelFilter::Parse(request->filter());
+    if (!filter.ok()) return filter.status();
     absl::StatusOr<SessionRegistry::Page> page =
-        registry_->List(request->page_size(), request->page_token());
+        registry_->List(request->page_size(), request->page_token(), *filter);
     if (!page.ok()) return page.status();
     for (const std::shared_ptr<Session>& session : page->sessions) {
       *response->add_sessions() = session->Describe();

@@ -72,13 +72,21 @@ absl::Status Violations::Result() const {
   std::vector<std::string> messages;
   std::vector<std::string> records;
   for (const absl::Status& error : errors_) {
-    messages.emplace_back(error.message());
-    for (const FieldViolation& v : FieldViolations(error)) {
+    const std::vector<FieldViolation> violations = FieldViolations(error);
+    // A Result() added here is flattened: one entry per problem.
+    if (violations.size() > 1) {
+      for (const FieldViolation& v : violations) {
+        messages.push_back(absl::StrCat(v.field, ": ", v.description));
+      }
+    } else {
+      messages.emplace_back(error.message());
+    }
+    for (const FieldViolation& v : violations) {
       records.push_back(absl::StrCat(v.field, "\x1f", v.description));
     }
   }
   absl::Status result = absl::InvalidArgumentError(
-      absl::StrCat(errors_.size(), " problems: ", absl::StrJoin(messages, "; ")));
+      absl::StrCat(messages.size(), " problems: ", absl::StrJoin(messages, "; ")));
   result.SetPayload(kViolationsPayload, absl::Cord(absl::StrJoin(records, "\x1e")));
   return result;
 }

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "google/protobuf/util/time_util.h"
 #include "server/service/field_violation.h"
 #include "server/service/logging.h"
 #include "server/service/resource_name.h"
@@ -117,17 +118,23 @@ std::optional<ParsedFit> ParseSavedHyperparameters(const std::string& bytes,
 
 }  // namespace
 
-Session::Session(std::string id, v1::SessionConfig config,
+Session::Session(std::string id, v1::SessionConfig config, Metadata metadata,
                  std::optional<gp::DynamicsModel> model, store::SqliteStore* store)
     : id_(std::move(id)),
       name_(SessionName(id_)),
       config_(std::move(config)),
+      metadata_(std::move(metadata)),
       store_(store),
       model_(std::move(model)),
       planner_(PlanOptionsFromConfig(config_)) {}
 
+Session::Metadata Session::MetadataOf(const store::SessionRecord& record) {
+  return {record.display_name, record.labels, record.created_unix_ms};
+}
+
 absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
                                                          v1::SessionConfig config,
+                                                         Metadata metadata,
                                                          store::SqliteStore* store) {
   try {
     absl::StatusOr<gp::DynamicsModel> model =
@@ -136,8 +143,8 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
       return absl::Status(model.status().code(),
                           absl::StrCat("config: ", model.status().message()));
     }
-    std::shared_ptr<Session> session(
-        new Session(std::move(id), std::move(config), *std::move(model), store));
+    std::shared_ptr<Session> session(new Session(
+        std::move(id), std::move(config), std::move(metadata), *std::move(model), store));
     absl::MutexLock lock(&session->mu_);
     session->PublishInfo();
     return session;
@@ -218,8 +225,8 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
         }
       }
     }
-    std::shared_ptr<Session> session(
-        new Session(record.id, std::move(config), *std::move(model), store));
+    std::shared_ptr<Session> session(new Session(
+        record.id, std::move(config), MetadataOf(record), *std::move(model), store));
     absl::MutexLock lock(&session->mu_);
     session->sample_count_ = n;
     session->last_sequence_ = last_sequence;
@@ -247,7 +254,7 @@ std::shared_ptr<Session> Session::SetAside(
   }
   const auto n = static_cast<int64_t>(samples.size());
   std::shared_ptr<Session> session(
-      new Session(record.id, std::move(config), std::nullopt, store));
+      new Session(record.id, std::move(config), MetadataOf(record), std::nullopt, store));
   absl::MutexLock lock(&session->mu_);
   session->damaged_ = std::move(damaged);
   session->sample_count_ = n;
@@ -261,6 +268,13 @@ v1::Session Session::Describe() const {
   v1::Session proto;
   proto.set_name(name_);
   *proto.mutable_config() = config_;
+  proto.set_display_name(metadata_.display_name);
+  proto.mutable_labels()->insert(metadata_.labels.begin(), metadata_.labels.end());
+  if (metadata_.created_unix_ms > 0) {
+    *proto.mutable_create_time() =
+        google::protobuf::util::TimeUtil::MillisecondsToTimestamp(
+            metadata_.created_unix_ms);
+  }
   absl::MutexLock lock(&info_mu_);
   proto.set_sample_count(info_.sample_count);
   proto.set_last_sequence(info_.last_sequence);

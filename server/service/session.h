@@ -19,6 +19,7 @@
 #include "server/plan/planner.h"
 #include "server/service/memory_budget.h"
 #include "server/service/metrics.h"
+#include "server/service/session_labels.h"
 #include "server/store/sqlite_store.h"
 #include "server/store/store_records.h"
 
@@ -43,10 +44,19 @@ class Session {
  public:
   using Clock = std::chrono::steady_clock;
 
-  // A new, empty session. `config` must have passed ValidateSessionConfig.
-  // `store` must outlive the session. Does not write the store.
+  // What a person sees of a session besides its config; fixed at creation.
+  struct Metadata {
+    std::string display_name;
+    Labels labels;
+    int64_t created_unix_ms = 0;  // 0: unknown
+  };
+
+  // A new, empty session. `config` must have passed ValidateSessionConfig and
+  // `metadata` ValidateDisplayNameAndLabels. `store` must outlive the session.
+  // Does not write the store.
   static absl::StatusOr<std::shared_ptr<Session>> Create(std::string id,
                                                          v1::SessionConfig config,
+                                                         Metadata metadata,
                                                          store::SqliteStore* store);
 
   // A session rebuilt from the store: its record and all its samples (in any
@@ -71,6 +81,7 @@ class Session {
   // "sessions/{id}".
   const std::string& name() const { return name_; }
   const v1::SessionConfig& config() const { return config_; }
+  const Labels& labels() const { return metadata_.labels; }
 
   // Where refit and store-write timings go (nullptr: nowhere, the default). Call
   // before the session is shared; `metrics` must outlive it.
@@ -145,8 +156,9 @@ class Session {
     absl::Status damage;
   };
 
-  Session(std::string id, v1::SessionConfig config,
+  Session(std::string id, v1::SessionConfig config, Metadata metadata,
           std::optional<gp::DynamicsModel> model, store::SqliteStore* store);
+  static Metadata MetadataOf(const store::SessionRecord& record);
   // A damaged session (see Restore): no model, every model call answers `damage`
   // as DATA_LOSS.
   static std::shared_ptr<Session> SetAside(
@@ -172,6 +184,7 @@ class Session {
   const std::string id_;
   const std::string name_;
   const v1::SessionConfig config_;
+  const Metadata metadata_;
   store::SqliteStore* const store_;
   Metrics* metrics_ = nullptr;
   MemoryBudget* budget_ = nullptr;

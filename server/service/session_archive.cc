@@ -9,6 +9,7 @@
 #include "server/service/field_violation.h"
 #include "server/service/request_validation.h"
 #include "server/service/resource_name.h"
+#include "server/service/session_labels.h"
 #include "server/service/store_conversion.h"
 
 namespace excite::service {
@@ -68,6 +69,11 @@ absl::StatusOr<v1::SessionConfig> ValidateSessionArchive(
         absl::StrCat(path, ".created_unix_ms"),
         absl::StrCat("must be >= 0 (0: unknown), got ", archive.created_unix_ms()));
   }
+  if (absl::Status s = ValidateDisplayNameAndLabels(
+          archive.display_name(), archive.labels(), absl::StrCat(path, "."));
+      !s.ok()) {
+    return s;
+  }
   return config;
 }
 
@@ -94,6 +100,8 @@ absl::StatusOr<v1::SessionArchive> ArchiveFromStore(
     *archive.add_samples() = ToTransition(sample);
   }
   archive.set_created_unix_ms(record.created_unix_ms);
+  archive.set_display_name(record.display_name);
+  archive.mutable_labels()->insert(record.labels.begin(), record.labels.end());
   return archive;
 }
 
@@ -106,6 +114,8 @@ ArchiveRecords ArchiveToStore(const v1::SessionArchive& archive,
       archive.created_unix_ms() > 0 ? archive.created_unix_ms() : now_unix_ms;
   out.record.hyperparameters = EncodeSavedHyperparameters(archive.hyperparameters(),
                                                           archive.fitted_sample_count());
+  out.record.display_name = archive.display_name();
+  out.record.labels = Labels(archive.labels().begin(), archive.labels().end());
   out.samples.reserve(static_cast<size_t>(archive.samples_size()));
   for (const v1::Transition& t : archive.samples()) {
     out.samples.push_back(ToSampleRecord(t));

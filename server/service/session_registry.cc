@@ -8,6 +8,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
 #include "server/service/config_validation.h"
+#include "server/service/field_violation.h"
 #include "server/service/logging.h"
 #include "server/service/resource_name.h"
 
@@ -95,18 +96,23 @@ std::string SessionRegistry::GenerateId() {
 }
 
 absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Create(
-    const std::string& session_id, const v1::SessionConfig& config) {
-  if (absl::Status s = CheckOptionalSessionId(session_id, "session_id"); !s.ok()) {
-    return s;
-  }
+    const std::string& session_id, const v1::SessionConfig& config,
+    const std::string& display_name,
+    const google::protobuf::Map<std::string, std::string>& labels) {
   absl::StatusOr<v1::SessionConfig> validated = ValidatedSessionConfig(config, "config");
-  if (!validated.ok()) return validated.status();
+  Violations problems;
+  problems.Add(CheckOptionalSessionId(session_id, "session_id"));
+  problems.Add(validated.status());
+  problems.Add(ValidateDisplayNameAndLabels(display_name, labels));
+  if (absl::Status s = problems.Result(); !s.ok()) return s;
+  Session::Metadata metadata{display_name, Labels(labels.begin(), labels.end()),
+                             absl::ToUnixMillis(absl::Now())};
 
   absl::MutexLock lock(&mu_);
   absl::StatusOr<std::string> id = NewSessionId(session_id);
   if (!id.ok()) return id.status();
   absl::StatusOr<std::shared_ptr<Session>> session =
-      Session::Create(*id, *validated, store_);
+      Session::Create(*id, *validated, metadata, store_);
   if (!session.ok()) return session.status();
   const int64_t bytes = (*session)->EstimatedBytes(0);
   if (absl::Status s = Reserve(bytes, absl::StrCat("a new session ", SessionName(*id)));
@@ -116,7 +122,9 @@ absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Create(
   store::SessionRecord record;
   record.id = *id;
   record.config = validated->SerializeAsString();
-  record.created_unix_ms = absl::ToUnixMillis(absl::Now());
+  record.created_unix_ms = metadata.created_unix_ms;
+  record.display_name = metadata.display_name;
+  record.labels = metadata.labels;
   if (absl::Status s = store_->CreateSession(record); !s.ok()) {
     if (budget_ != nullptr) budget_->Release(bytes);
     return s;
@@ -195,7 +203,7 @@ absl::Status SessionRegistry::Delete(const std::string& id) {
 }
 
 absl::StatusOr<SessionRegistry::Page> SessionRegistry::List(
-    int32_t page_size, const std::string& page_token) const {
+    int32_t page_size, const std::string& page_token, const LabelFilter& filter) const {
   if (page_size < 0) {
     return absl::InvalidArgumentError(
         absl::StrCat("page_size: must be >= 0 (0 for the default ", kDefaultPageSize,
@@ -214,7 +222,7 @@ absl::StatusOr<SessionRegistry::Page> SessionRegistry::List(
   auto it = after.empty() ? sessions_.begin() : sessions_.upper_bound(after);
   for (; it != sessions_.end() && static_cast<int32_t>(page.sessions.size()) < page_size;
        ++it) {
-    page.sessions.push_back(it->second);
+    if (filter.Matches(it->second->labels())) page.sessions.push_back(it->second);
   }
   if (it != sessions_.end() && !page.sessions.empty()) {
     page.next_page_token = EncodeToken(page.sessions.back()->id());

@@ -33,12 +33,14 @@ class SessionRegistry {
       store::SqliteStore* store, int64_t max_sessions, Metrics* metrics = nullptr,
       MemoryBudget* budget = nullptr);
 
-  // Creates and stores a session. `session_id` empty: a fresh id is generated.
-  // INVALID_ARGUMENT for a malformed id or config (field path under "config"),
-  // ALREADY_EXISTS for a taken id, RESOURCE_EXHAUSTED beyond max_sessions or the
-  // memory budget.
-  absl::StatusOr<std::shared_ptr<Session>> Create(const std::string& session_id,
-                                                  const v1::SessionConfig& config);
+  // Creates and stores a session, created now. `session_id` empty: a fresh id is
+  // generated. INVALID_ARGUMENT for a malformed id, config (field path under
+  // "config"), display name or labels, with every problem at once; ALREADY_EXISTS
+  // for a taken id, RESOURCE_EXHAUSTED beyond max_sessions or the memory budget.
+  absl::StatusOr<std::shared_ptr<Session>> Create(
+      const std::string& session_id, const v1::SessionConfig& config,
+      const std::string& display_name = "",
+      const google::protobuf::Map<std::string, std::string>& labels = {});
 
   // Creates and stores a session with all its samples and saved hyperparameters
   // (`record` as from a validated SessionArchive; its id and model_version are
@@ -61,9 +63,11 @@ class SessionRegistry {
     std::string next_page_token;  // empty on the last page
   };
   // Sessions in id order after `page_token` (an opaque token from a previous
-  // page). page_size: 0 means 50, larger than 1000 means 1000; negative is
-  // INVALID_ARGUMENT, as is a token this server did not produce.
-  absl::StatusOr<Page> List(int32_t page_size, const std::string& page_token) const;
+  // page) that `filter` matches. page_size: 0 means 50, larger than 1000 means
+  // 1000; negative is INVALID_ARGUMENT, as is a token this server did not produce.
+  // Every page but the last holds page_size sessions; the last may be empty.
+  absl::StatusOr<Page> List(int32_t page_size, const std::string& page_token,
+                            const LabelFilter& filter = LabelFilter()) const;
 
   int64_t size() const;
 

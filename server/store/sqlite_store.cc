@@ -25,8 +25,15 @@ CREATE TABLE sessions (
   config BLOB NOT NULL,
   created_unix_ms INTEGER NOT NULL,
   hyperparameters BLOB NOT NULL DEFAULT x'',
-  model_version INTEGER NOT NULL DEFAULT 0
+  model_version INTEGER NOT NULL DEFAULT 0,
+  display_name TEXT NOT NULL DEFAULT ''
 );
+CREATE TABLE session_labels (
+  session_id TEXT NOT NULL,
+  key TEXT NOT NULL,
+  value TEXT NOT NULL,
+  PRIMARY KEY (session_id, key)
+) WITHOUT ROWID;
 CREATE TABLE samples (
   session_id TEXT NOT NULL,
   sequence INTEGER NOT NULL,
@@ -38,9 +45,22 @@ CREATE TABLE samples (
 ) WITHOUT ROWID;
 )sql";
 
-// The columns of a SessionRecord, in SessionFromRow's order.
+// Version 1 had neither display names nor labels; its rows get empty ones.
+constexpr char kMigrateFromVersion1[] = R"sql(
+ALTER TABLE sessions ADD COLUMN display_name TEXT NOT NULL DEFAULT '';
+CREATE TABLE session_labels (
+  session_id TEXT NOT NULL,
+  key TEXT NOT NULL,
+  value TEXT NOT NULL,
+  PRIMARY KEY (session_id, key)
+) WITHOUT ROWID;
+UPDATE schema_version SET version = 2;
+)sql";
+
+// The columns of a SessionRecord but its labels, in SessionFromRow's order.
 constexpr char kSelectSessions[] =
-    "SELECT id, config, created_unix_ms, hyperparameters, model_version FROM sessions";
+    "SELECT id, config, created_unix_ms, hyperparameters, model_version, display_name "
+    "FROM sessions";
 
 SessionRecord SessionFromRow(const SqliteStatement& stmt) {
   SessionRecord record;
@@ -49,6 +69,7 @@ SessionRecord SessionFromRow(const SqliteStatement& stmt) {
   record.created_unix_ms = stmt.ColumnInt64(2);
   record.hyperparameters = stmt.ColumnBlob(3);
   record.model_version = stmt.ColumnInt64(4);
+  record.display_name = stmt.ColumnText(5);
   return record;
 }
 
@@ -254,6 +275,7 @@ absl::Status SqliteStore::InitSchema() {
           "): it was written by a newer excite-server; upgrade excite-server or use "
           "another --data_dir"));
     }
+    if (versions[0] == 1) return MigrateFromVersion1();
     if (versions[0] != kSchemaVersion) {
       return absl::FailedPreconditionError(absl::StrCat("unknown schema version ",
                                                         versions[0],
@@ -263,6 +285,11 @@ absl::Status SqliteStore::InitSchema() {
     }
     return absl::OkStatus();
   });
+}
+
+absl::Status SqliteStore::MigrateFromVersion1() {
+  // Inside InitSchema's transaction: the upgrade commits whole or not at all.
+  return Exec(kMigrateFromVersion1);
 }
 
 absl::StatusOr<bool> SqliteStore::SessionExists(const std::string& id) {
@@ -290,19 +317,48 @@ absl::Status SqliteStore::InsertSessionRow(const SessionRecord& session) {
   absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
       db_,
       "INSERT INTO sessions (id, config, created_unix_ms, hyperparameters, "
-      "model_version) VALUES (?, ?, ?, ?, ?)");
+      "model_version, display_name) VALUES (?, ?, ?, ?, ?, ?)");
   if (!stmt.ok()) return stmt.status();
   if (absl::Status s = stmt->BindText(1, session.id); !s.ok()) return s;
   if (absl::Status s = stmt->BindBlob(2, session.config); !s.ok()) return s;
   if (absl::Status s = stmt->BindInt64(3, session.created_unix_ms); !s.ok()) return s;
   if (absl::Status s = stmt->BindBlob(4, session.hyperparameters); !s.ok()) return s;
   if (absl::Status s = stmt->BindInt64(5, session.model_version); !s.ok()) return s;
+  if (absl::Status s = stmt->BindText(6, session.display_name); !s.ok()) return s;
   absl::Status status = stmt->Step().status();
   if (absl::IsAlreadyExists(status)) {
     return absl::AlreadyExistsError(
         absl::StrCat("session sessions/", session.id, " already exists"));
   }
-  return status;
+  if (!status.ok()) return status;
+  absl::StatusOr<SqliteStatement> label = SqliteStatement::Prepare(
+      db_, "INSERT INTO session_labels (session_id, key, value) VALUES (?, ?, ?)");
+  if (!label.ok()) return label.status();
+  for (const auto& [key, value] : session.labels) {
+    if (absl::Status s = label->Reset(); !s.ok()) return s;
+    if (absl::Status s = label->BindText(1, session.id); !s.ok()) return s;
+    if (absl::Status s = label->BindText(2, key); !s.ok()) return s;
+    if (absl::Status s = label->BindText(3, value); !s.ok()) return s;
+    if (absl::Status s = label->Step().status(); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SqliteStore::LoadLabels(std::vector<SessionRecord>* sessions) {
+  absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
+      db_, "SELECT key, value FROM session_labels WHERE session_id = ? ORDER BY key");
+  if (!stmt.ok()) return stmt.status();
+  for (SessionRecord& session : *sessions) {
+    if (absl::Status s = stmt->Reset(); !s.ok()) return s;
+    if (absl::Status s = stmt->BindText(1, session.id); !s.ok()) return s;
+    while (true) {
+      absl::StatusOr<bool> row = stmt->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      session.labels[stmt->ColumnText(0)] = stmt->ColumnText(1);
+    }
+  }
+  return absl::OkStatus();
 }
 
 absl::Status SqliteStore::InsertSampleRows(const std::string& session_id,
@@ -354,11 +410,13 @@ absl::Status SqliteStore::ImportSession(const SessionRecord& session,
 absl::Status SqliteStore::DeleteSession(const std::string& id) {
   absl::MutexLock lock(&mu_);
   return InTransaction([&]() -> absl::Status {
-    absl::StatusOr<SqliteStatement> samples =
-        SqliteStatement::Prepare(db_, "DELETE FROM samples WHERE session_id = ?");
-    if (!samples.ok()) return samples.status();
-    if (absl::Status s = samples->BindText(1, id); !s.ok()) return s;
-    if (absl::Status s = samples->Step().status(); !s.ok()) return s;
+    for (const char* sql : {"DELETE FROM samples WHERE session_id = ?",
+                            "DELETE FROM session_labels WHERE session_id = ?"}) {
+      absl::StatusOr<SqliteStatement> rows = SqliteStatement::Prepare(db_, sql);
+      if (!rows.ok()) return rows.status();
+      if (absl::Status s = rows->BindText(1, id); !s.ok()) return s;
+      if (absl::Status s = rows->Step().status(); !s.ok()) return s;
+    }
     absl::StatusOr<SqliteStatement> session =
         SqliteStatement::Prepare(db_, "DELETE FROM sessions WHERE id = ?");
     if (!session.ok()) return session.status();
@@ -383,6 +441,7 @@ absl::StatusOr<std::vector<SessionRecord>> SqliteStore::LoadSessions() {
     if (!*row) break;
     sessions.push_back(SessionFromRow(*stmt));
   }
+  if (absl::Status s = LoadLabels(&sessions); !s.ok()) return s;
   return sessions;
 }
 
@@ -397,7 +456,9 @@ absl::StatusOr<SessionRecord> SqliteStore::LoadSession(const std::string& id) {
   if (!*row) {
     return absl::NotFoundError(absl::StrCat("session sessions/", id, " not found"));
   }
-  return SessionFromRow(*stmt);
+  std::vector<SessionRecord> one = {SessionFromRow(*stmt)};
+  if (absl::Status s = LoadLabels(&one); !s.ok()) return s;
+  return std::move(one.front());
 }
 
 absl::StatusOr<std::vector<SampleRecord>> SqliteStore::LoadSamples(

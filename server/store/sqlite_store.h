@@ -22,8 +22,9 @@ namespace excite::store {
 // writes returns only after its transaction is committed to disk.
 //
 // Tables: schema_version(version), sessions(id, config, created_unix_ms,
-// hyperparameters, model_version), samples(session_id, sequence, state, input,
-// next_state, timestamp_s) with PRIMARY KEY(session_id, sequence). Vectors of
+// hyperparameters, model_version, display_name), session_labels(session_id, key,
+// value) with PRIMARY KEY(session_id, key), samples(session_id, sequence, state,
+// input, next_state, timestamp_s) with PRIMARY KEY(session_id, sequence). Vectors of
 // doubles are stored as blobs of IEEE-754 little-endian doubles.
 //
 // Thread-safe: one connection behind a mutex (writes are serialised anyway by
@@ -31,7 +32,8 @@ namespace excite::store {
 class SqliteStore {
  public:
   // The schema version this build reads and writes.
-  static constexpr int kSchemaVersion = 1;
+  // Version 1 (before display names and labels) is migrated in place at Open.
+  static constexpr int kSchemaVersion = 2;
 
   // Creates `data_dir` (and parents) if needed, opens or creates excite.db and its
   // schema. FAILED_PRECONDITION if the database has a schema version this build
@@ -97,6 +99,11 @@ class SqliteStore {
   // INSERT of one sessions row (ALREADY_EXISTS "session sessions/x already exists").
   absl::Status InsertSessionRow(const SessionRecord& session)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Fills `sessions`' labels from session_labels.
+  absl::Status LoadLabels(std::vector<SessionRecord>* sessions)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Version 1 -> 2: display_name and session_labels.
+  absl::Status MigrateFromVersion1() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // INSERT (OR IGNORE if `ignore_duplicates`) of samples rows; `result` (may be
   // null) records which were new.
   absl::Status InsertSampleRows(const std::string& session_id,

@@ -2,6 +2,7 @@
 #define EXCITE_SERVER_STORE_STORE_RECORDS_H_
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,10 @@ struct SessionRecord {
   std::string hyperparameters;
   // Model version at the time `hyperparameters` were saved (0 if never).
   int64_t model_version = 0;
+  // What a person calls the session (may be empty).
+  std::string display_name;
+  // key -> value; validated by the service, stored as given.
+  std::map<std::string, std::string> labels;
 };
 
 // One measured transition (x_k, u_k, x_{k+1}) with its per-session sequence number.

@@ -306,6 +306,25 @@ TEST_F(EndToEndTest, CliDoesAFirstWorkflowAlone) {
   ASSERT_EQ(RunCli({"plan", "--session=first", "--state=0,0"}, &out, &err), 0) << err;
   EXPECT_NE(out.find("horizon"), std::string::npos) << out;
 
+  // Sessions a person can tell apart: a display name and labels, and a filter.
+  ASSERT_EQ(
+      RunCli({"sessions", "create", "--config=" EXCITE_PENDULUM_CONFIG, "--id=second",
+              "--display_name=Rig B", "--labels=plant=pendulum,rig=b"},
+             &out, &err),
+      0)
+      << err;
+  ASSERT_EQ(RunCli({"sessions", "list", "--filter=labels.rig = b"}, &out, &err), 0)
+      << err;
+  EXPECT_NE(out.find("sessions/second"), std::string::npos) << out;
+  EXPECT_NE(out.find("\"Rig B\""), std::string::npos) << out;
+  EXPECT_NE(out.find("labels=plant=pendulum,rig=b"), std::string::npos) << out;
+  EXPECT_EQ(out.find("sessions/first"), std::string::npos) << out;
+  EXPECT_EQ(
+      RunCli({"sessions", "create", "--config=" EXCITE_PENDULUM_CONFIG, "--labels=x"},
+             &out, &err),
+      2);
+  EXPECT_NE(err.find("\"x\" is not KEY=VALUE"), std::string::npos) << err;
+
   // Local errors are said as such, not as gRPC codes.
   EXPECT_EQ(RunCli({"sessions", "create", "--config=/no/such.textproto"}, &out, &err), 1);
   EXPECT_NE(err.find("excite: cannot read /no/such.textproto"), std::string::npos) << err;

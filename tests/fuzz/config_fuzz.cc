@@ -2,7 +2,8 @@
 // SessionConfig as textproto (config files, excite-sim, the CLI) and as binary
 // protobuf (CreateSession), its validation, the validation of AddData,
 // Predict and PlanInputs requests against a validated config, and of a
-// SessionArchive (ImportSession, `excite import` files). Must never crash
+// SessionArchive (ImportSession, `excite import` files) and ListSessions' label
+// filter. Must never crash
 // (ASan); validation must be idempotent (a validated config validates again,
 // unchanged), else the target aborts. Transitions that pass validation are
 // given to the session's GP model as the server would (delta or next target,
@@ -23,6 +24,7 @@
 #include "server/service/config_validation.h"
 #include "server/service/request_validation.h"
 #include "server/service/session_archive.h"
+#include "server/service/session_labels.h"
 #include "server/service/session_options.h"
 
 namespace excite::service {
@@ -100,5 +102,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         excite::service::ValidateSessionArchive(archive);
     if (config.ok()) excite::service::ModelTakes(*config, archive.samples());
   }
+  // ListSessions' label filter: parsed or refused, never a crash; a parsed one
+  // can be applied.
+  absl::StatusOr<excite::service::LabelFilter> filter =
+      excite::service::LabelFilter::Parse(bytes);
+  if (filter.ok()) filter->Matches({{"plant", "pendulum"}, {"", bytes}});
   return 0;
 }

@@ -158,3 +158,34 @@ def test_clients_send_the_bearer_token_on_every_kind_of_call(tmp_path):
             assert stream.result is not None and stream.result.sample_count == 4
     finally:
         assert server.stop() == 0
+
+
+def test_display_name_labels_and_filter(client, server):
+    import datetime
+    before = datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0)
+    a = client.create_session(linear_config(), session_id="lab-a", display_name="Rig A",
+                              labels={"plant": "linear", "rig": "a"})
+    client.create_session(linear_config(), session_id="lab-b", labels={"plant": "linear"})
+    client.create_session(linear_config(), session_id="lab-c", labels={"plant": "other"})
+    assert (a.display_name, a.labels) == ("Rig A", {"plant": "linear", "rig": "a"})
+    assert a.create_time is not None and a.create_time >= before
+    assert a.create_time <= datetime.datetime.now(datetime.timezone.utc)
+    ids = [s.id for s in client.list_sessions(filter='labels.plant = "linear"')]
+    assert ids == ["lab-a", "lab-b"]
+    assert [s.id for s in client.list_sessions(page_size=1, filter="labels.rig:*")] == ["lab-a"]
+    with pytest.raises(excite.InvalidArgument) as error:
+        client.create_session(linear_config(), labels={"Bad Key": "x"})
+    assert [field for field, _ in error.value.violations] == ['labels["Bad Key"]']
+    with pytest.raises(excite.InvalidArgument) as error:
+        list(client.list_sessions(filter="plant = linear"))
+    assert "only labels can be filtered on" in str(error.value.details())
+
+    async def run():
+        async with excite.aio.Client(server.address, timeout_s=30) as aio_client:
+            made = await aio_client.create_session(linear_config(), session_id="lab-d",
+                                                   display_name="D", labels={"plant": "other"})
+            assert (made.display_name, made.labels) == ("D", {"plant": "other"})
+            return [s.id async for s in aio_client.list_sessions(filter="labels.plant = other")]
+    assert asyncio.run(run()) == ["lab-c", "lab-d"]
+    for name in ("lab-a", "lab-b", "lab-c", "lab-d"):
+        client.delete_session(name)

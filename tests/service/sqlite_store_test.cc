@@ -3,6 +3,7 @@
 #include <sqlite3.h>
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -221,7 +222,7 @@ TEST(SqliteStoreTest, DeleteRemovesSessionAndSamples) {
   EXPECT_TRUE((*store)->LoadSamples("s")->empty());
 }
 
-void SetSchemaVersion(const std::string& db_path, const char* sql) {
+void RunSql(const std::string& db_path, const char* sql) {
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open(db_path.c_str(), &db), SQLITE_OK);
   ASSERT_EQ(sqlite3_exec(db, sql, nullptr, nullptr, nullptr), SQLITE_OK)
@@ -229,10 +230,110 @@ void SetSchemaVersion(const std::string& db_path, const char* sql) {
   sqlite3_close(db);
 }
 
+TEST(SqliteStoreTest, DisplayNamesAndLabelsRoundTripAndGoWithTheSession) {
+  excite::testing::TempDir tmp;
+  {
+    auto store = SqliteStore::Open(tmp.path());
+    ASSERT_TRUE(store.ok());
+    SessionRecord labelled = Session("labelled");
+    labelled.display_name = "Pendulum, lab B12 \xc3\xa9";
+    labelled.labels = {{"plant", "pendulum"}, {"run", "7"}, {"empty", ""}};
+    ASSERT_TRUE((*store)->CreateSession(labelled).ok());
+    ASSERT_TRUE((*store)->CreateSession(Session("plain")).ok());
+    SessionRecord imported = Session("imported");
+    imported.labels = {{"plant", "unicycle"}};
+    ASSERT_TRUE((*store)->ImportSession(imported, {Sample(0)}).ok());
+  }
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok());
+  auto labelled = (*store)->LoadSession("labelled");
+  ASSERT_TRUE(labelled.ok());
+  EXPECT_EQ(labelled->display_name, "Pendulum, lab B12 \xc3\xa9");
+  const std::map<std::string, std::string> want = {
+      {"empty", ""}, {"plant", "pendulum"}, {"run", "7"}};
+  EXPECT_EQ(labelled->labels, want);
+  auto sessions = (*store)->LoadSessions();
+  ASSERT_TRUE(sessions.ok());
+  ASSERT_EQ(sessions->size(), 3u);
+  EXPECT_EQ((*sessions)[0].labels.at("plant"), "unicycle");  // "imported"
+  EXPECT_EQ((*sessions)[1].labels, want);
+  EXPECT_TRUE((*sessions)[2].labels.empty());  // "plain"
+  EXPECT_EQ((*sessions)[2].display_name, "");
+
+  // Deleted with the session: a new session of that id starts without them.
+  ASSERT_TRUE((*store)->DeleteSession("labelled").ok());
+  ASSERT_TRUE((*store)->CreateSession(Session("labelled")).ok());
+  EXPECT_TRUE((*store)->LoadSession("labelled")->labels.empty());
+}
+
+// A data directory written by a version-1 server (no display names, no labels) is
+// upgraded in place at Open and keeps every session and sample.
+TEST(SqliteStoreTest, MigratesVersionOneInPlace) {
+  excite::testing::TempDir tmp;
+  RunSql(tmp.path() + "/excite.db", R"sql(
+    CREATE TABLE schema_version (version INTEGER NOT NULL);
+    INSERT INTO schema_version (version) VALUES (1);
+    CREATE TABLE sessions (
+      id TEXT PRIMARY KEY NOT NULL,
+      config BLOB NOT NULL,
+      created_unix_ms INTEGER NOT NULL,
+      hyperparameters BLOB NOT NULL DEFAULT x'',
+      model_version INTEGER NOT NULL DEFAULT 0
+    );
+    CREATE TABLE samples (
+      session_id TEXT NOT NULL,
+      sequence INTEGER NOT NULL,
+      state BLOB NOT NULL,
+      input BLOB NOT NULL,
+      next_state BLOB NOT NULL,
+      timestamp_s REAL NOT NULL,
+      PRIMARY KEY (session_id, sequence)
+    ) WITHOUT ROWID;
+    INSERT INTO sessions VALUES ('old', x'0802', 1600000000000, x'6879', 3);
+    INSERT INTO samples VALUES ('old', 5, x'000000000000F03F', x'0000000000000040',
+                                x'0000000000000840', 1.5);
+  )sql");
+  {
+    auto store = SqliteStore::Open(tmp.path());
+    ASSERT_TRUE(store.ok()) << store.status();
+    auto old = (*store)->LoadSession("old");
+    ASSERT_TRUE(old.ok()) << old.status();
+    EXPECT_EQ(old->config, "\x08\x02");
+    EXPECT_EQ(old->created_unix_ms, 1600000000000);
+    EXPECT_EQ(old->hyperparameters, "hy");
+    EXPECT_EQ(old->model_version, 3);
+    EXPECT_EQ(old->display_name, "");
+    EXPECT_TRUE(old->labels.empty());
+    auto samples = (*store)->LoadSamples("old");
+    ASSERT_TRUE(samples.ok());
+    ASSERT_EQ(samples->size(), 1u);
+    EXPECT_EQ((*samples)[0].sequence, 5);
+    EXPECT_EQ((*samples)[0].state, std::vector<double>{1.0});
+    EXPECT_EQ((*samples)[0].next_state, std::vector<double>{3.0});
+    SessionRecord labelled = Session("new");
+    labelled.labels = {{"k", "v"}};
+    ASSERT_TRUE((*store)->CreateSession(labelled).ok());
+  }
+  // Upgraded once: the second open finds version 2.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((tmp.path() + "/excite.db").c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  ASSERT_EQ(
+      sqlite3_prepare_v2(db, "SELECT version FROM schema_version", -1, &stmt, nullptr),
+      SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
+  EXPECT_EQ(sqlite3_column_int(stmt, 0), SqliteStore::kSchemaVersion);
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+  auto store = SqliteStore::Open(tmp.path());
+  ASSERT_TRUE(store.ok()) << store.status();
+  EXPECT_EQ((*store)->LoadSession("new")->labels.at("k"), "v");
+}
+
 TEST(SqliteStoreTest, RefusesNewerSchemaVersion) {
   excite::testing::TempDir tmp;
   { ASSERT_TRUE(SqliteStore::Open(tmp.path()).ok()); }
-  SetSchemaVersion(tmp.path() + "/excite.db", "UPDATE schema_version SET version = 99");
+  RunSql(tmp.path() + "/excite.db", "UPDATE schema_version SET version = 99");
   auto store = SqliteStore::Open(tmp.path());
   EXPECT_EQ(store.status().code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(store.status().message(), HasSubstr("schema version 99 is newer"));
@@ -241,13 +342,13 @@ TEST(SqliteStoreTest, RefusesNewerSchemaVersion) {
 TEST(SqliteStoreTest, RefusesUnknownSchemaVersionAndForeignDatabases) {
   excite::testing::TempDir tmp;
   { ASSERT_TRUE(SqliteStore::Open(tmp.path()).ok()); }
-  SetSchemaVersion(tmp.path() + "/excite.db", "UPDATE schema_version SET version = 0");
+  RunSql(tmp.path() + "/excite.db", "UPDATE schema_version SET version = 0");
   auto store = SqliteStore::Open(tmp.path());
   EXPECT_EQ(store.status().code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(store.status().message(), HasSubstr("unknown schema version 0"));
 
   excite::testing::TempDir other;
-  SetSchemaVersion(other.path() + "/excite.db", "CREATE TABLE foo (x INTEGER)");
+  RunSql(other.path() + "/excite.db", "CREATE TABLE foo (x INTEGER)");
   auto foreign = SqliteStore::Open(other.path());
   EXPECT_EQ(foreign.status().code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(foreign.status().message(), HasSubstr("no schema_version table"));

@@ -5,10 +5,11 @@ settings. Nothing here makes a call."""
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import os
 import pathlib
 import time
-from typing import Any, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
 import grpc
 import numpy as np
@@ -113,6 +114,44 @@ class Samples:
 
 
 # ------------------------------------------------------------------------ config
+
+
+class SessionView:
+    """What both clients' ``Session`` mirror from a ``Session`` message at its last
+    refresh; ``info`` is the message itself."""
+
+    info: pb.Session
+    name: str
+    id: str
+    display_name: str
+    labels: Dict[str, str]
+    create_time: Optional[datetime.datetime]  # UTC; None if the server did not say
+    config: config_pb.SessionConfig
+    state_dim: int
+    input_dim: int
+    sample_count: int
+    model_version: int
+    last_sequence: int
+    next_sequence: int  # given to transitions added without explicit numbers
+    metadata: Metadata
+
+    def _set(self, info: pb.Session) -> None:
+        self.info = info
+        self.name = info.name
+        self.id = session_id(info.name)
+        self.display_name = info.display_name
+        self.labels = dict(info.labels)
+        self.create_time = (info.create_time.ToDatetime(tzinfo=datetime.timezone.utc)
+                            if info.HasField("create_time") else None)
+        self.config = info.config
+        self.state_dim = info.config.state_dim
+        self.input_dim = info.config.input_dim
+        self.sample_count = info.sample_count
+        self.model_version = info.model_version
+        self.last_sequence = info.last_sequence
+        self.outputs = info.outputs
+        self.next_sequence = info.last_sequence + 1
+        self.metadata = session_metadata(self.id)  # see SESSION_HEADER
 
 
 def _friendly_dict(config: Mapping[str, Any]) -> dict:

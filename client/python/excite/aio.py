@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import asyncio
 import os
-from typing import Any, AsyncIterator, List, Optional, Union
+from typing import Any, AsyncIterator, List, Mapping, Optional, Union
 
 import grpc
 import grpc.aio
@@ -116,10 +116,13 @@ class Client:
                                          timeout=self.timeout_s)
         return _common.health_status(reply)
 
-    async def create_session(self, config: ConfigLike, session_id: str = "") -> Session:
+    async def create_session(self, config: ConfigLike, session_id: str = "",
+                             display_name: str = "",
+                             labels: Optional[Mapping[str, str]] = None) -> Session:
         """Creates a session (see :func:`excite.session_config`); returns it."""
         request = pb.CreateSessionRequest(session_id=session_id,
-                                          config=_common.session_config(config))
+                                          config=_common.session_config(config),
+                                          display_name=display_name, labels=labels or {})
         info = await self._calls.CreateSession(
             request, timeout=self.timeout_s, metadata=_common.session_metadata(session_id))
         return Session(self, info)
@@ -131,12 +134,14 @@ class Client:
             metadata=_common.session_metadata(name))
         return Session(self, info)
 
-    async def list_sessions(self, page_size: int = 0) -> AsyncIterator[Session]:
-        """``async for`` over every session, fetching pages of `page_size`."""
+    async def list_sessions(self, page_size: int = 0,
+                            filter: str = "") -> AsyncIterator[Session]:
+        """``async for`` over every session whose labels match `filter`, fetching
+        pages of `page_size`."""
         token = ""
         while True:
             page = await self._calls.ListSessions(
-                pb.ListSessionsRequest(page_size=page_size, page_token=token),
+                pb.ListSessionsRequest(page_size=page_size, page_token=token, filter=filter),
                 timeout=self.timeout_s)
             for info in page.sessions:
                 yield Session(self, info)
@@ -167,38 +172,14 @@ class Client:
         return Session(self, info)
 
 
-class Session:
+class Session(_common.SessionView):
     """One session, as :class:`excite.Session` with coroutine methods."""
 
     client: Client
-    info: pb.Session
-    name: str
-    id: str
-    config: config_pb.SessionConfig
-    state_dim: int
-    input_dim: int
-    sample_count: int
-    model_version: int
-    last_sequence: int
-    next_sequence: int
 
     def __init__(self, client: Client, info: pb.Session) -> None:
         self.client = client
         self._set(info)
-
-    def _set(self, info: pb.Session) -> None:
-        self.info = info
-        self.name = info.name
-        self.id = _common.session_id(info.name)
-        self.config = info.config
-        self.state_dim = info.config.state_dim
-        self.input_dim = info.config.input_dim
-        self.sample_count = info.sample_count
-        self.model_version = info.model_version
-        self.last_sequence = info.last_sequence
-        self.outputs = info.outputs
-        self.next_sequence = info.last_sequence + 1
-        self.metadata = _common.session_metadata(self.id)
 
     def __repr__(self) -> str:
         return (f"aio.Session({self.name!r}, state_dim={self.state_dim}, "

@@ -14,7 +14,7 @@ import collections
 import os
 import queue
 import threading
-from typing import Any, Iterator, List, Optional, Union
+from typing import Any, Iterator, List, Mapping, Optional, Union
 
 import grpc
 import numpy.typing as npt
@@ -118,9 +118,14 @@ class Client:
         reply = self._health_check(_common.health_request(service), timeout=self.timeout_s)
         return _common.health_status(reply)
 
-    def create_session(self, config: ConfigLike, session_id: str = "") -> Session:
-        """Creates a session (see :func:`session_config` for `config`); returns it."""
-        request = pb.CreateSessionRequest(session_id=session_id, config=session_config(config))
+    def create_session(self, config: ConfigLike, session_id: str = "",
+                       display_name: str = "",
+                       labels: Optional[Mapping[str, str]] = None) -> Session:
+        """Creates a session (see :func:`session_config` for `config`); returns it.
+        `labels` (keys and values of a-z, 0-9, _ and -) can be filtered on in
+        :meth:`list_sessions`."""
+        request = pb.CreateSessionRequest(session_id=session_id, config=session_config(config),
+                                          display_name=display_name, labels=labels or {})
         return Session(self, self.stub.CreateSession(
             request, timeout=self.timeout_s, metadata=_common.session_metadata(session_id)))
 
@@ -130,13 +135,14 @@ class Client:
         return Session(self, self.stub.GetSession(
             request, timeout=self.timeout_s, metadata=_common.session_metadata(name)))
 
-    def list_sessions(self, page_size: int = 0) -> Iterator[Session]:
-        """Iterates over every session, fetching pages of `page_size` (0: server's
-        default)."""
+    def list_sessions(self, page_size: int = 0, filter: str = "") -> Iterator[Session]:
+        """Iterates over every session whose labels match `filter` (e.g.
+        ``'labels.plant = "pendulum" AND labels.run:*'``; empty: all), fetching
+        pages of `page_size` (0: server's default)."""
         token = ""
         while True:
             page = self.stub.ListSessions(
-                pb.ListSessionsRequest(page_size=page_size, page_token=token),
+                pb.ListSessionsRequest(page_size=page_size, page_token=token, filter=filter),
                 timeout=self.timeout_s,
             )
             for info in page.sessions:
@@ -178,43 +184,21 @@ class Client:
             metadata=_common.session_metadata(session_id or message.session_id)))
 
 
-class Session:
+class Session(_common.SessionView):
     """One session: its GP model lives on the server.
 
-    Attributes mirror the ``Session`` message at the last refresh: ``name``,
-    ``config``, ``sample_count``, ``model_version``, ``last_sequence``, ``outputs``
-    (per-dimension hyperparameters); ``info`` is the message itself.
+    Attributes mirror the ``Session`` message at the last refresh (see
+    :class:`excite._common.SessionView`): ``name``, ``display_name``, ``labels``,
+    ``create_time``, ``config``, ``sample_count``, ``model_version``,
+    ``last_sequence``, ``outputs`` (per-dimension hyperparameters); ``info`` is the
+    message itself.
     """
 
     client: Client
-    info: pb.Session
-    name: str
-    id: str
-    config: config_pb.SessionConfig
-    state_dim: int
-    input_dim: int
-    sample_count: int
-    model_version: int
-    last_sequence: int
-    next_sequence: int  # given to transitions added without explicit numbers
 
     def __init__(self, client: Client, info: pb.Session) -> None:
         self.client = client
         self._set(info)
-
-    def _set(self, info: pb.Session) -> None:
-        self.info = info
-        self.name = info.name
-        self.id = _common.session_id(info.name)
-        self.config = info.config
-        self.state_dim = info.config.state_dim
-        self.input_dim = info.config.input_dim
-        self.sample_count = info.sample_count
-        self.model_version = info.model_version
-        self.last_sequence = info.last_sequence
-        self.outputs = info.outputs
-        self.next_sequence = info.last_sequence + 1
-        self.metadata = _common.session_metadata(self.id)  # see SESSION_HEADER
 
     def __repr__(self) -> str:
         return (f"Session({self.name!r}, state_dim={self.state_dim}, "
