@@ -9,6 +9,7 @@ PACKAGES=(
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libeigen3-dev coinor-libipopt-dev libabsl-dev liblbfgspp-dev libsqlite3-dev
   prometheus-cpp-dev  # the metrics endpoint (prometheus-cpp's exposer, on civetweb)
+  libcpp-httplib-dev  # the live view (--web_listen)
   libmujoco-dev  # found by path: its CMake package would demand OpenGL and qhull
   libgtest-dev libgmock-dev libbenchmark-dev
   liblapack-dev libblas-dev  # ipopt.pc links -llapack -lblas (only recommended)
@@ -17,6 +18,7 @@ PACKAGES=(
   python3-venv python3-setuptools python3-wheel  # pip install client/python into a venv, offline
   python3-mypy  # type check of the Python client (ctest python_typecheck)
   python3-matplotlib  # bench/paper: the paper-table runner's plots
+  chromium chromium-driver python3-selenium  # tests/web: the live view in a real browser
   openssl                    # TLS tests make their certificates at test time
   clang libclang-rt-14-dev   # tests/fuzz: libFuzzer target (config_fuzz_30s)
   # container smoke test (tests/container): podman with runc, a local base image, compose

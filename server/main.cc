@@ -33,6 +33,10 @@ ABSL_FLAG(int64_t, max_sessions, 10000, "Cap on the number of sessions.");
 ABSL_FLAG(std::string, metrics_listen, "",
           "HOST:PORT of a Prometheus endpoint (plain HTTP GET /metrics, no token); "
           "empty: off.");
+ABSL_FLAG(std::string, web_listen, "",
+          "HOST:PORT of the live view: a web page of the sessions as they explore "
+          "(same TLS and token as the API; open it as http(s)://HOST:PORT/#token=...); "
+          "empty: off.");
 ABSL_FLAG(std::string, tls_cert, "",
           "PEM server certificate (chain); with --tls_key: TLS.");
 ABSL_FLAG(std::string, tls_key, "", "PEM private key of --tls_cert.");
@@ -95,6 +99,7 @@ int Run(int argc, char** argv) {
   options.limits.max_predict_points = absl::GetFlag(FLAGS_max_predict_points);
   options.limits.max_horizon = absl::GetFlag(FLAGS_max_horizon);
   options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
+  options.web_listen = absl::GetFlag(FLAGS_web_listen);
   options.memory_budget_bytes =
       absl::GetFlag(FLAGS_memory_budget_mb) * (int64_t{1} << 20);
   options.security.tls_cert_file = absl::GetFlag(FLAGS_tls_cert);

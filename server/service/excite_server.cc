@@ -144,6 +144,9 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
                        "a network policy restricts it"));
     }
   }
+  if (!options.web_listen.empty()) {
+    if (absl::Status s = server->StartWebView(options); !s.ok()) return s;
+  }
   if (grpc::HealthCheckServiceInterface* health =
           server->server_->GetHealthCheckService()) {
     health->SetServingStatus(true);
@@ -168,6 +171,50 @@ ExciteServer::~ExciteServer() {
 
 int ExciteServer::metrics_port() const {
   return metrics_endpoint_ != nullptr ? metrics_endpoint_->port() : 0;
+}
+
+absl::Status ExciteServer::StartWebView(const ServerOptions& options) {
+  std::string host;
+  int port = 0;
+  if (absl::Status s = SplitHostPort(options.web_listen, &host, &port); !s.ok()) return s;
+  const SecurityOptions& security = options.security;
+  const bool loopback = IsLoopbackHost(host);
+  if (!loopback && security.tls_cert_file.empty()) {
+    if (!security.auth_token.empty()) {
+      // As for the API: a token must not travel in clear off loopback.
+      return absl::InvalidArgumentError(
+          absl::StrCat("--web_listen=", options.web_listen,
+                       ": a token without TLS is refused off loopback (set --tls_cert "
+                       "and --tls_key)"));
+    }
+    Log(LogLevel::kWarning,
+        absl::StrCat("web view on ", options.web_listen,
+                     " without TLS and without a token: anyone who can reach the port "
+                     "can read every session"));
+  }
+  web::WebViewOptions web;
+  web.listen = options.web_listen;
+  web.tls_cert_file = security.tls_cert_file;
+  web.tls_key_file = security.tls_key_file;
+  web.tls_client_ca_file = security.tls_client_ca_file;
+  web.auth_token = security.auth_token;
+  // In-process: no transport, so the web view checks TLS and the token itself.
+  grpc::ChannelArguments arguments;
+  arguments.SetMaxReceiveMessageSize(options.max_message_mb * 1024 * 1024);
+  absl::StatusOr<std::unique_ptr<web::WebView>> view =
+      web::WebView::Start(web, server_->InProcessChannel(arguments));
+  if (!view.ok()) return view.status();
+  web_view_ = *std::move(view);
+  Log(LogLevel::kInfo,
+      absl::StrCat("web view on port ", web_view_->port(), " (",
+                   security.tls_cert_file.empty() ? "http" : "https", "://", host, ":",
+                   web_view_->port(), "/",
+                   security.auth_token.empty() ? "" : "#token=...", ")"));
+  return absl::OkStatus();
+}
+
+int ExciteServer::web_port() const {
+  return web_view_ != nullptr ? web_view_->port() : 0;
 }
 
 std::string ExciteServer::address() const {

@@ -13,6 +13,7 @@
 #include "server/service/metrics.h"
 #include "server/service/session_registry.h"
 #include "server/store/sqlite_store.h"
+#include "server/web/web_view.h"
 
 namespace excite::service {
 
@@ -32,6 +33,10 @@ struct ServerOptions {
   std::string metrics_listen;
   // The memory budget (see MemoryBudget) in bytes; 0: DefaultMemoryBudgetBytes().
   int64_t memory_budget_bytes = 0;
+  // HOST:PORT of the live view (web::WebView: a page and its JSON API, with the
+  // same TLS and token as the API); empty: none. Port 0 picks a free one
+  // (web_port()).
+  std::string web_listen;
 };
 
 // The whole server: store, session registry, ExplorationService, grpc.health.v1
@@ -54,6 +59,8 @@ class ExciteServer {
   int port() const { return port_; }
   // The metrics endpoint's port; 0 without one.
   int metrics_port() const;
+  // The live view's port; 0 without one.
+  int web_port() const;
   // "host:port" (IPv6 hosts in brackets), ready to dial.
   std::string address() const;
 
@@ -66,6 +73,7 @@ class ExciteServer {
 
  private:
   ExciteServer() = default;
+  absl::Status StartWebView(const ServerOptions& options);
 
   std::string host_;
   int port_ = 0;
@@ -77,8 +85,10 @@ class ExciteServer {
   std::unique_ptr<grpc::Server> server_;
   absl::Mutex shutdown_mu_;
   bool shut_down_ ABSL_GUARDED_BY(shutdown_mu_) = false;
-  // Last: stops first (its gauges read registry_).
+  // Stops before everything above (its gauges read registry_).
   std::unique_ptr<MetricsEndpoint> metrics_endpoint_;
+  // Last: stops first (it calls server_ through its in-process channel).
+  std::unique_ptr<web::WebView> web_view_;
 };
 
 // Splits "host:port" / "[v6]:port". INVALID_ARGUMENT if malformed.

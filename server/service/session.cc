@@ -280,6 +280,7 @@ v1::Session Session::Describe() const {
   proto.set_last_sequence(info_.last_sequence);
   proto.set_model_version(info_.model_version);
   for (const v1::OutputModel& output : info_.outputs) *proto.add_outputs() = output;
+  if (info_.last_plan.has_value()) *proto.mutable_last_plan() = *info_.last_plan;
   return proto;
 }
 
@@ -291,6 +292,7 @@ absl::Status Session::Damage() const {
 void Session::PublishInfo() {
   Info info;
   info.damage = damaged_;
+  info.last_plan = last_plan_;
   info.sample_count = sample_count_;
   info.last_sequence = last_sequence_;
   info.model_version = model_version_;
@@ -607,6 +609,8 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
   response.set_wall_time_ms(summary.wall_time_ms);
   response.set_safe_box_violation(summary.safe_box_violation);
   response.set_model_version(model_version_);
+  last_plan_ = response;
+  PublishInfo();
   return response;
 }
 

@@ -154,6 +154,7 @@ class Session {
     int64_t model_version = 0;
     std::vector<v1::OutputModel> outputs;
     absl::Status damage;
+    std::optional<v1::PlanInputsResponse> last_plan;
   };
 
   Session(std::string id, v1::SessionConfig config, Metadata metadata,
@@ -197,6 +198,8 @@ class Session {
   int64_t last_sequence_ ABSL_GUARDED_BY(mu_) = -1;
   int64_t model_version_ ABSL_GUARDED_BY(mu_) = 0;
   bool deleted_ ABSL_GUARDED_BY(mu_) = false;
+  // Describe() reports it (for the live view); not stored.
+  std::optional<v1::PlanInputsResponse> last_plan_ ABSL_GUARDED_BY(mu_);
   // Bytes of budget_ this session holds: EstimatedBytes(sample_count_).
   int64_t reserved_bytes_ ABSL_GUARDED_BY(mu_) = 0;
   // DATA_LOSS if restored from samples the model cannot use: every call but

@@ -187,8 +187,12 @@ TEST_F(ServiceTest, PlanInputsPerStrategy) {
     std::replace(session_id.begin(), session_id.end(), '_', '-');
     const std::string name = Create(session_id, PendulumConfig(c.strategy)).name();
     Add(name, {PendulumTransitions(30, 0, 3)});
+    EXPECT_FALSE(client_->GetSession(name)->has_last_plan());
     absl::StatusOr<v1::PlanInputsResponse> plan = client_->PlanInputs(name, {0.1, -0.2});
     ASSERT_TRUE(plan.ok()) << plan.status();
+    // The session reports it (the live view draws it) until the next plan.
+    EXPECT_EQ(client_->GetSession(name)->last_plan().SerializeAsString(),
+              plan->SerializeAsString());
     EXPECT_EQ(plan->horizon(), c.horizon);
     EXPECT_EQ(plan->apply_count(), c.apply_count);
     ASSERT_EQ(plan->inputs_size(), c.horizon);

@@ -1,0 +1,227 @@
+"""The live view (excite-server --web_listen) in a real browser: headless Chromium
+driven by Selenium (Debian's chromium, chromium-driver, python3-selenium) against
+the real server while excite-sim explores the pendulum with `rec`. The page must
+load, list the running session, show it (samples, visited states with the plan's
+predicted trajectory, the std map, the objective, the hyperparameters) and update
+as samples arrive; the API must refuse calls without the token.
+
+Run: ctest -R web_live_view (label web), or with EXCITE_SERVER_BIN and
+EXCITE_SIM_BIN set: /usr/bin/python3 -m pytest tests/web/test_live_view.py
+"""
+
+import json
+import os
+import pathlib
+import re
+import subprocess
+import time
+import urllib.error
+import urllib.request
+
+import pytest
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.by import By
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+TOKEN = "live-view-test-token"
+# Sanitizer builds are many times slower: waits are generous, never sleeps.
+WAIT_S = 240
+
+
+def wait_for(what, check, timeout=WAIT_S, interval=0.2):
+    deadline = time.monotonic() + timeout
+    while True:
+        value = check()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(interval)
+
+
+@pytest.fixture(scope="module")
+def exploring(tmp_path_factory):
+    """A server with the live view and a plant exploring against it."""
+    work = tmp_path_factory.mktemp("live-view")
+    env = dict(os.environ, EXCITE_AUTH_TOKEN=TOKEN)
+    log_path = work / "server.log"
+    log = open(log_path, "w")
+    server = subprocess.Popen(
+        [os.environ["EXCITE_SERVER_BIN"], "--listen=127.0.0.1:0", f"--data_dir={work}/data",
+         "--web_listen=127.0.0.1:0"], stdout=log, stderr=subprocess.STDOUT, env=env)
+    sim = None
+    try:
+        text = wait_for("the server's ports", lambda: (
+            lambda t: t if "listening on" in t and "web view on port" in t else None)(
+                log_path.read_text()), timeout=60)
+        web_port = int(re.search(r"web view on port (\d+)", text).group(1))
+        grpc_port = int(re.search(r"listening on 127\.0\.0\.1:(\d+)", text).group(1))
+        sim = subprocess.Popen(
+            [os.environ["EXCITE_SIM_BIN"], f"--server=127.0.0.1:{grpc_port}",
+             f"--config={REPO}/sim/configs/pendulum.textproto", "--strategy=rec",
+             "--samples=2000", "--keep_session"],
+            stdout=open(work / "sim.log", "w"), stderr=subprocess.STDOUT, env=env)
+        yield f"http://127.0.0.1:{web_port}", work
+    finally:
+        if sim is not None:
+            sim.kill()
+            sim.wait()
+        server.terminate()
+        server.wait(timeout=30)
+        log.close()
+
+
+def get(url, token=None):
+    request = urllib.request.Request(url)
+    if token:
+        request.add_header("Authorization", f"Bearer {token}")
+    try:
+        with urllib.request.urlopen(request, timeout=30) as reply:
+            return reply.status, json.loads(reply.read())
+    except urllib.error.HTTPError as error:
+        return error.code, json.loads(error.read())
+
+
+@pytest.fixture(scope="module")
+def browser():
+    options = webdriver.ChromeOptions()
+    options.binary_location = "/usr/bin/chromium"
+    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
+                     "--window-size=1400,1000"):
+        options.add_argument(argument)
+    driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+    yield driver
+    driver.quit()
+
+
+def test_the_api_wants_the_token(exploring):
+    base, _ = exploring
+    status, body = get(f"{base}/api/sessions")
+    assert status == 401 and body["code"] == "UNAUTHENTICATED", body
+    status, body = get(f"{base}/api/sessions", "wrong-token")
+    assert status == 401, body
+    status, body = get(f"{base}/api/sessions", TOKEN)
+    assert status == 200 and "sessions" in body, body
+    status, body = get(f"{base}/api/sessions/no-such-session", TOKEN)
+    assert status == 404 and body["code"] == "NOT_FOUND", body
+    # The page itself holds no data and needs no token.
+    with urllib.request.urlopen(base + "/", timeout=30) as reply:
+        assert reply.status == 200 and b"excite" in reply.read()
+
+
+def painted(driver, canvas_id):
+    """How many pixels of the canvas are painted (not transparent)."""
+    return driver.execute_script(
+        "const c = document.getElementById(arguments[0]);"
+        "const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
+        "let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; return n;",
+        canvas_id)
+
+
+def number(driver, element_id):
+    text = driver.find_element(By.ID, element_id).text
+    return int(text) if text.isdigit() else -1
+
+
+def test_the_page_shows_the_running_session_and_updates(exploring, browser):
+    base, work = exploring
+    browser.get(f"{base}/#token={TOKEN}")
+    # The list is redrawn at every refresh: read and click it in one script.
+    listed = wait_for("the session in the list", lambda: browser.execute_script(
+        "const li = document.querySelector('#sessions li[data-id]');"
+        "if (!li) return null; li.click(); return [li.dataset.id, li.textContent];"))
+    session_id, text = listed
+    assert "rec" in text
+    # The token left the address bar (it stays in the tab's sessionStorage).
+    assert TOKEN not in browser.current_url
+    assert browser.current_url.endswith(f"#session={session_id}")
+    wait_for("samples on the page", lambda: number(browser, "sample-count") > 0)
+    wait_for("a plan with its objective",
+             lambda: "objective" in browser.find_element(By.ID, "plan-facts").text)
+    wait_for("the fitted hyperparameters", lambda: len(
+        browser.find_elements(By.CSS_SELECTOR, "#hyperparameters tbody tr")) == 2)
+    rows = browser.find_elements(By.CSS_SELECTOR, "#hyperparameters tbody tr")
+    assert rows[0].text.startswith("x0") and rows[1].text.startswith("x1")
+    wait_for("the std map", lambda: " to " in browser.find_element(By.ID, "std-range").text)
+
+    # Updates: the count grows while the plant explores, without a reload.
+    first = number(browser, "sample-count")
+    wait_for("more samples", lambda: number(browser, "sample-count") > first)
+    wait_for("the plots drawn", lambda: all(
+        painted(browser, c) > 2000
+        for c in ("plot-samples", "plot-states", "plot-std", "plot-objective")))
+    # The std map is a grid of coloured cells over most of its plot area.
+    assert painted(browser, "plot-std") > 0.5 * 420 * 260
+    # What the page shows agrees with the API.
+    status, session = get(f"{base}/api/sessions/{session_id}", TOKEN)
+    assert status == 200 and int(session["sample_count"]) >= number(browser, "sample-count")
+    assert session["config"]["strategy"] == "STRATEGY_REC"
+    errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+    assert not errors, errors
+    browser.save_screenshot(str(work / "live-view.png"))
+
+
+def test_without_the_token_the_page_asks_for_it(exploring, browser):
+    base, _ = exploring
+    browser.get(f"{base}/")
+    browser.execute_script("sessionStorage.clear()")
+    browser.refresh()
+    form = browser.find_element(By.ID, "token-form")
+    wait_for("the token prompt", form.is_displayed)
+    assert not browser.find_elements(By.CSS_SELECTOR, "#sessions li[data-id]")
+    browser.find_element(By.ID, "token-input").send_keys(TOKEN)
+    browser.find_element(By.CSS_SELECTOR, "#token-form button").click()
+    wait_for("the list after the token", lambda: browser.find_elements(
+        By.CSS_SELECTOR, "#sessions li[data-id]"))
+    assert not form.is_displayed()
+
+
+def test_with_tls_the_view_is_https_only(tmp_path):
+    """With --tls_cert the page and the API are served over HTTPS (the API's
+    certificate; deploy/k8s/make-secrets.sh makes one for 127.0.0.1), and a token
+    is required as before."""
+    import socket
+    import ssl
+    secrets = tmp_path / "secrets"
+    subprocess.run(["bash", str(REPO / "deploy/k8s/make-secrets.sh"), "default", str(secrets)],
+                   check=True, capture_output=True)
+    log_path = tmp_path / "server.log"
+    with open(log_path, "w") as log:
+        server = subprocess.Popen(
+            [os.environ["EXCITE_SERVER_BIN"], "--listen=127.0.0.1:0",
+             f"--data_dir={tmp_path}/data", "--web_listen=127.0.0.1:0",
+             f"--tls_cert={secrets}/tls.crt", f"--tls_key={secrets}/tls.key",
+             f"--auth_token_file={secrets}/token"], stdout=log, stderr=subprocess.STDOUT)
+        try:
+            text = wait_for("the web port", lambda: (lambda t: t if "web view on port" in t
+                                                     else None)(log_path.read_text()), 60)
+            port = int(re.search(r"web view on port (\d+)", text).group(1))
+            assert f"https://127.0.0.1:{port}/" in text
+            token = (secrets / "token").read_text().strip()
+            context = ssl.create_default_context(cafile=str(secrets / "ca.crt"))
+            request = urllib.request.Request(f"https://127.0.0.1:{port}/api/sessions",
+                                             headers={"Authorization": f"Bearer {token}"})
+            with urllib.request.urlopen(request, context=context, timeout=30) as reply:
+                assert reply.status == 200 and json.loads(reply.read()) == {
+                    "sessions": [], "next_page_token": ""}
+            with pytest.raises(urllib.error.HTTPError) as refused:
+                urllib.request.urlopen(f"https://127.0.0.1:{port}/api/sessions",
+                                       context=context, timeout=30)
+            assert refused.value.code == 401
+            # Plain HTTP gets no page: the connection is not an HTTP one.
+            with socket.create_connection(("127.0.0.1", port), timeout=10) as plain:
+                plain.sendall(b"GET / HTTP/1.0\r\n\r\n")
+                assert b"<html" not in plain.recv(4096)
+        finally:
+            server.terminate()
+            server.wait(timeout=30)
+
+
+def test_a_token_without_tls_is_refused_off_loopback(tmp_path):
+    started = subprocess.run(
+        [os.environ["EXCITE_SERVER_BIN"], "--listen=127.0.0.1:0", f"--data_dir={tmp_path}/data",
+         "--web_listen=0.0.0.0:0"], capture_output=True, text=True, timeout=60,
+        env=dict(os.environ, EXCITE_AUTH_TOKEN=TOKEN))
+    assert started.returncode != 0
+    assert "a token without TLS is refused off loopback" in started.stderr, started.stderr
