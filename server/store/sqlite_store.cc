@@ -28,12 +28,6 @@ CREATE TABLE sessions (
   model_version INTEGER NOT NULL DEFAULT 0,
   display_name TEXT NOT NULL DEFAULT ''
 );
-CREATE TABLE session_labels (
-  session_id TEXT NOT NULL,
-  key TEXT NOT NULL,
-  value TEXT NOT NULL,
-  PRIMARY KEY (session_id, key)
-) WITHOUT ROWID;
 CREATE TABLE samples (
   session_id TEXT NOT NULL,
   sequence INTEGER NOT NULL,
@@ -45,15 +39,19 @@ CREATE TABLE samples (
 ) WITHOUT ROWID;
 )sql";
 
-// Version 1 had neither display names nor labels; its rows get empty ones.
-constexpr char kMigrateFromVersion1[] = R"sql(
-ALTER TABLE sessions ADD COLUMN display_name TEXT NOT NULL DEFAULT '';
+// Created with the tables above, and by the migration from version 1.
+constexpr char kCreateSessionLabels[] = R"sql(
 CREATE TABLE session_labels (
   session_id TEXT NOT NULL,
   key TEXT NOT NULL,
   value TEXT NOT NULL,
   PRIMARY KEY (session_id, key)
 ) WITHOUT ROWID;
+)sql";
+
+// Version 1 had neither display names nor labels; its rows get empty ones.
+constexpr char kMigrateFromVersion1[] = R"sql(
+ALTER TABLE sessions ADD COLUMN display_name TEXT NOT NULL DEFAULT '';
 UPDATE schema_version SET version = 2;
 )sql";
 
@@ -246,6 +244,7 @@ absl::Status SqliteStore::InitSchema() {
             "written by excite-server; refusing to use it");
       }
       if (absl::Status s = Exec(kCreateTables); !s.ok()) return s;
+      if (absl::Status s = Exec(kCreateSessionLabels); !s.ok()) return s;
       absl::StatusOr<SqliteStatement> insert = SqliteStatement::Prepare(
           db_, "INSERT INTO schema_version (version) VALUES (?)");
       if (!insert.ok()) return insert.status();
@@ -289,6 +288,7 @@ absl::Status SqliteStore::InitSchema() {
 
 absl::Status SqliteStore::MigrateFromVersion1() {
   // Inside InitSchema's transaction: the upgrade commits whole or not at all.
+  if (absl::Status s = Exec(kCreateSessionLabels); !s.ok()) return s;
   return Exec(kMigrateFromVersion1);
 }
 

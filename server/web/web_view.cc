@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 
+#include "absl/status/status.h"
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -59,28 +60,6 @@ int HttpStatus(grpc::StatusCode code) {
   }
 }
 
-const char* CodeName(grpc::StatusCode code) {
-  static const char* const kNames[] = {"OK",
-                                       "CANCELLED",
-                                       "UNKNOWN",
-                                       "INVALID_ARGUMENT",
-                                       "DEADLINE_EXCEEDED",
-                                       "NOT_FOUND",
-                                       "ALREADY_EXISTS",
-                                       "PERMISSION_DENIED",
-                                       "RESOURCE_EXHAUSTED",
-                                       "FAILED_PRECONDITION",
-                                       "ABORTED",
-                                       "OUT_OF_RANGE",
-                                       "UNIMPLEMENTED",
-                                       "INTERNAL",
-                                       "UNAVAILABLE",
-                                       "DATA_LOSS",
-                                       "UNAUTHENTICATED"};
-  const int index = static_cast<int>(code);
-  return index >= 0 && index < 17 ? kNames[index] : "UNKNOWN";
-}
-
 std::string JsonString(const std::string& text) {
   std::string quoted;
   google::protobuf::util::JsonPrintOptions options;
@@ -93,9 +72,11 @@ std::string JsonString(const std::string& text) {
 void SendError(httplib::Response& res, grpc::StatusCode code,
                const std::string& message) {
   res.status = HttpStatus(code);
-  res.set_content(absl::StrCat("{\"code\":\"", CodeName(code),
-                               "\",\"message\":", JsonString(message), "}"),
-                  kJson);
+  res.set_content(
+      absl::StrCat("{\"code\":\"",
+                   absl::StatusCodeToString(static_cast<absl::StatusCode>(code)),
+                   "\",\"message\":", JsonString(message), "}"),
+      kJson);
 }
 
 void SendMessage(httplib::Response& res, const google::protobuf::Message& message) {
