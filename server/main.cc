@@ -19,6 +19,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "common/usage.h"
+#include "server/gp/dense_linear_algebra.h"
 #include "server/service/auth.h"
 #include "server/service/excite_server.h"
 #include "server/service/logging.h"
@@ -71,6 +72,10 @@ int Run(int argc, char** argv) {
     return 2;
   }
   excite::service::SetLogLevel(*level);
+  if (absl::Status blas = excite::gp::CheckBlasRunsOnTheCallingThread(); !blas.ok()) {
+    std::fprintf(stderr, "excite-server: %s\n", std::string(blas.message()).c_str());
+    return 2;
+  }
 
   // Blocks of 1 MiB and more (kernel matrices from n ~ 360) are mapped and given
   // back to the system when freed. glibc's default threshold rises to 32 MiB after

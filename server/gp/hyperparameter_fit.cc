@@ -10,8 +10,10 @@
 #include <cstdlib>
 #include <exception>
 #include <limits>
+#include <numeric>
 #include <optional>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -25,6 +27,10 @@ namespace {
 // Thrown by the objective when the stop callback fires; unlike a line-search
 // failure (std::exception) it ends the whole fit.
 struct FitStopped {};
+
+bool SameTheta(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  return a.size() == b.size() && a == b;
+}
 
 // Parameter vector: (log sf2, log l_1..d[, log sn2]).
 class Objective {
@@ -49,11 +55,14 @@ class Objective {
   double operator()(const Eigen::VectorXd& theta, Eigen::VectorXd& grad) {
     if (stop_ && stop_()) throw FitStopped{};
     ++evaluations_;
-    last_theta_ = theta;
     const double scale = 1.0 / std::max(1, model_->size());
     grad.setZero(theta.size());
-    if (!theta.allFinite() || !model_->SetHyperparameters(Unpack(theta)).ok()) {
-      return std::numeric_limits<double>::max();
+    if (!SameTheta(theta, factorised_theta_)) {
+      factorised_theta_.resize(0);
+      if (!theta.allFinite() || !model_->SetHyperparameters(Unpack(theta)).ok()) {
+        return std::numeric_limits<double>::max();
+      }
+      factorised_theta_ = theta;
     }
     const double f = -scale * model_->log_marginal_likelihood();
     const Eigen::VectorXd g = model_->LogMarginalLikelihoodGradient();
@@ -76,8 +85,10 @@ class Objective {
   double best_f() const { return best_f_; }
   const Eigen::VectorXd& best_theta() const { return best_theta_; }
   int evaluations() const { return evaluations_; }
-  // The point at which the model is currently factorised.
-  const Eigen::VectorXd& last_theta() const { return last_theta_; }
+  // The point at which the model is currently factorised (empty if unknown).
+  const Eigen::VectorXd& factorised_theta() const { return factorised_theta_; }
+  // The model is factorised at `theta` already: an evaluation there reuses it.
+  void AssumeFactorisedAt(Eigen::VectorXd theta) { factorised_theta_ = std::move(theta); }
 
  private:
   GpModel* model_;
@@ -88,7 +99,7 @@ class Objective {
   int evaluations_ = 0;
   double best_f_ = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_theta_;
-  Eigen::VectorXd last_theta_;
+  Eigen::VectorXd factorised_theta_;
 };
 
 absl::Status CheckOptions(const FitOptions& o) {
@@ -156,10 +167,43 @@ absl::StatusOr<FitSummary> FitHyperparameters(
     return theta;
   };
 
-  // Starts: warm (if any), data-driven default, random log-uniform.
+  // Presearch: a cold fit on a subset picks the one start polished on all data.
+  FitSummary summary;
+  std::optional<Hyperparameters> presearch_optimum;
+  if (!warm_start.has_value() && options.presearch_size > 0 &&
+      model->size() > 2 * options.presearch_size) {
+    std::vector<int> rows(model->size());
+    std::iota(rows.begin(), rows.end(), 0);
+    std::mt19937_64 shuffle_rng(options.seed ^ 0x9e3779b97f4a7c15ULL);
+    std::shuffle(rows.begin(), rows.end(), shuffle_rng);
+    rows.resize(options.presearch_size);
+    std::sort(rows.begin(), rows.end());
+    GpModel subset;
+    if (absl::Status s = subset.Reset(model->inputs()(rows, Eigen::all),
+                                      model->targets()(rows), model->hyperparameters());
+        !s.ok()) {
+      return s;
+    }
+    FitOptions subset_options = options;
+    subset_options.presearch_size = 0;
+    absl::StatusOr<FitSummary> r = FitHyperparameters(
+        subset_options, noise_variance, fit_noise, std::nullopt, &subset, stop);
+    if (!r.ok()) return r.status();
+    summary.starts += r->starts;
+    summary.iterations += r->iterations;
+    summary.failed_starts += r->failed_starts;
+    summary.presearch_evaluations = r->evaluations;
+    summary.stopped = r->stopped;
+    presearch_optimum = subset.hyperparameters();
+  }
+
+  // Starts: warm (if any), data-driven default, random log-uniform; or the
+  // presearch's optimum alone.
   std::vector<Eigen::VectorXd> starts;
+  if (presearch_optimum.has_value()) starts.push_back(pack(*presearch_optimum));
   if (warm_start.has_value()) starts.push_back(pack(*warm_start));
-  if (!warm_start.has_value() || options.warm_default_start) {
+  if (!presearch_optimum.has_value() &&
+      (!warm_start.has_value() || options.warm_default_start)) {
     // Outputs are standardised and inputs scaled to about [-1, 1]: unit signal
     // variance and lengthscales, and a noise well below the signal.
     Hyperparameters h;
@@ -170,8 +214,9 @@ absl::StatusOr<FitSummary> FitHyperparameters(
   }
   std::mt19937_64 rng(options.seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const int random_starts =
-      warm_start.has_value() ? options.warm_restarts : options.restarts;
+  const int random_starts = presearch_optimum.has_value() ? 0
+                            : warm_start.has_value()      ? options.warm_restarts
+                                                          : options.restarts;
   for (int r = 0; r < random_starts; ++r) {
     Eigen::VectorXd theta(p);
     for (int i = 0; i < p; ++i) theta(i) = lb(i) + unit(rng) * (ub(i) - lb(i));
@@ -188,11 +233,23 @@ absl::StatusOr<FitSummary> FitHyperparameters(
   LBFGSpp::LBFGSBSolver<double> solver(param);
 
   Objective objective(model, d, fit_noise, noise_variance, stop);
-  FitSummary summary;
+  {
+    // The caller resets the model at its warm start (DynamicsModel) or the default
+    // start: evaluating there again would repeat an O(n^3) factorisation.
+    const Hyperparameters& h = model->hyperparameters();
+    Eigen::VectorXd at(p);
+    at(0) = std::log(h.signal_variance);
+    at.segment(1, d) = h.lengthscales.array().log();
+    if (fit_noise) at(d + 1) = std::log(h.noise_variance);
+    if (fit_noise || h.noise_variance == noise_variance) {
+      objective.AssumeFactorisedAt(std::move(at));
+    }
+  }
   summary.fitted = true;
   double best_f = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_theta;
   for (const Eigen::VectorXd& start : starts) {
+    if (summary.stopped) break;
     ++summary.starts;
     objective.ResetBest();
     Eigen::VectorXd theta = start;
@@ -214,11 +271,11 @@ absl::StatusOr<FitSummary> FitHyperparameters(
     }
     if (summary.stopped) break;
   }
-  summary.evaluations = objective.evaluations();
+  summary.evaluations = summary.presearch_evaluations + objective.evaluations();
   absl::Status status;
   if (best_theta.size() == p) {
     // Refactorise at the best point unless the model is already there.
-    if (objective.last_theta() != best_theta) {
+    if (!SameTheta(objective.factorised_theta(), best_theta)) {
       status = model->SetHyperparameters(objective.Unpack(best_theta));
     }
   } else {

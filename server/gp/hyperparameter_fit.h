@@ -51,6 +51,11 @@ struct FitOptions {
   // is >= default_start_growth times that at the last Refit() which ran it
   // (1 or less: at every Refit()).
   double default_start_growth = 1.2;
+  // Cold fits with more than 2 * presearch_size samples (0: never) run the
+  // default and random starts on a random subset of presearch_size samples, then
+  // polish only the best of them on all the data: an evaluation on the subset
+  // costs (presearch_size / n)^3 of one on all of it.
+  int presearch_size = 256;
   // L-BFGS-B iterations per start.
   int max_iterations = 60;
   // The objective is -LML / max(1, n) (scale-free). A start stops when its
@@ -71,6 +76,8 @@ struct FitSummary {
   double wall_time_ms = 0.0;
   // Added: objective evaluations (each an O(n^3) factorisation + gradient).
   int evaluations = 0;
+  // Of which on the presearch subset (FitOptions::presearch_size).
+  int presearch_evaluations = 0;
   // The stop callback ended the fit early; the model holds the best point seen.
   bool stopped = false;
 };

@@ -1,0 +1,43 @@
+#ifndef EXCITE_SERVER_GP_DENSE_LINEAR_ALGEBRA_H_
+#define EXCITE_SERVER_GP_DENSE_LINEAR_ALGEBRA_H_
+
+#include <Eigen/Dense>
+
+#include "absl/status/status.h"
+
+namespace excite::gp {
+
+// The O(n^3) and O(n^2 m) kernels of the exact GP, on the system's LAPACK and
+// BLAS: OpenBLAS's serial build where scripts/setup.sh or the image installed it.
+// OpenBLAS picks AVX2/FMA or AVX-512 code for the CPU at run time, so a portable
+// binary gets them; Eigen's own kernels only use the instructions the build
+// targets (SSE2 for a portable x86-64 build), 3-4x slower here at n >= 500
+// (bench/gp). Each call runs on the calling thread; calls from several threads
+// may run at once (the serial OpenBLAS locks its buffer pool).
+//
+// Matrices may be blocks of larger ones (the leading dimension is the outer
+// stride), column-major, as Eigen stores them.
+
+// Cholesky factorisation A = L L^T in place (dpotrf): reads the lower triangle of
+// the square `a`, leaves L there; the strict upper triangle is not touched. False
+// if A is not (numerically) positive definite; `a` is then partly overwritten.
+bool CholeskyInPlace(Eigen::Ref<Eigen::MatrixXd> a);
+
+// A^-1 (full, symmetric) from the lower Cholesky factor L of A (dpotri):
+// 2 n^3 / 3 flops, a third of solving against the identity.
+Eigen::MatrixXd InverseFromCholesky(const Eigen::Ref<const Eigen::MatrixXd>& l);
+
+// B <- L^-1 B and B <- L^-T B for the lower triangle L of the square `l`
+// (dtrsm), B with l.rows() rows.
+void SolveLower(const Eigen::Ref<const Eigen::MatrixXd>& l,
+                Eigen::Ref<Eigen::MatrixXd> b);
+void SolveLowerTransposed(const Eigen::Ref<const Eigen::MatrixXd>& l,
+                          Eigen::Ref<Eigen::MatrixXd> b);
+
+// OK unless the BLAS loaded is a threaded OpenBLAS, which excite does not run on
+// (FAILED_PRECONDITION saying why and what to install). Servers call it at start.
+absl::Status CheckBlasRunsOnTheCallingThread();
+
+}  // namespace excite::gp
+
+#endif  // EXCITE_SERVER_GP_DENSE_LINEAR_ALGEBRA_H_

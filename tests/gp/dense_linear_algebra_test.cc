@@ -1,0 +1,87 @@
+#include "server/gp/dense_linear_algebra.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+namespace excite::gp {
+namespace {
+
+// A symmetric positive definite n x n matrix with condition number ~1e3.
+Eigen::MatrixXd Spd(int n, int seed) {
+  std::srand(seed);
+  const Eigen::MatrixXd a = Eigen::MatrixXd::Random(n, n);
+  return a * a.transpose() / n + 1e-3 * Eigen::MatrixXd::Identity(n, n);
+}
+
+double RelativeError(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).norm() / b.norm();
+}
+
+// Each kernel on a block of a larger matrix (leading dimension != n), against
+// Eigen's own implementation, at sizes below and above OpenBLAS's blocking.
+class DenseLinearAlgebraTest : public ::testing::TestWithParam<int> {};
+
+TEST_P(DenseLinearAlgebraTest, CholeskyMatchesEigenAndLeavesTheRestAlone) {
+  const int n = GetParam();
+  const Eigen::MatrixXd a = Spd(n, 1);
+  Eigen::MatrixXd storage = Eigen::MatrixXd::Constant(n + 7, n + 5, 42.0);
+  storage.topLeftCorner(n, n) = a;
+  ASSERT_TRUE(CholeskyInPlace(storage.topLeftCorner(n, n)));
+  const Eigen::MatrixXd expected = a.llt().matrixL();
+  const Eigen::MatrixXd got = storage.topLeftCorner(n, n).triangularView<Eigen::Lower>();
+  EXPECT_LT(RelativeError(got, expected), 1e-12);
+  // The strict upper triangle keeps A's entries; the rest of the storage is untouched.
+  const Eigen::MatrixXd upper =
+      storage.topLeftCorner(n, n).triangularView<Eigen::StrictlyUpper>();
+  EXPECT_EQ(upper, Eigen::MatrixXd(a.triangularView<Eigen::StrictlyUpper>()));
+  EXPECT_TRUE((storage.bottomRows(7).array() == 42.0).all());
+  EXPECT_TRUE((storage.rightCols(5).array() == 42.0).all());
+}
+
+TEST_P(DenseLinearAlgebraTest, InverseFromCholeskyIsTheInverse) {
+  const int n = GetParam();
+  const Eigen::MatrixXd a = Spd(n, 2);
+  Eigen::MatrixXd storage = Eigen::MatrixXd::Zero(n + 3, n + 3);
+  storage.topLeftCorner(n, n) = a.llt().matrixL();
+  const Eigen::MatrixXd inverse = InverseFromCholesky(storage.topLeftCorner(n, n));
+  EXPECT_LT(RelativeError(inverse, a.inverse()), 1e-10);
+  EXPECT_EQ(inverse, inverse.transpose());  // exactly symmetric
+}
+
+TEST_P(DenseLinearAlgebraTest, TriangularSolvesMatchEigen) {
+  const int n = GetParam();
+  const Eigen::MatrixXd l = Spd(n, 3).llt().matrixL();
+  std::srand(4);
+  const Eigen::MatrixXd b = Eigen::MatrixXd::Random(n, 9);
+  Eigen::MatrixXd storage = Eigen::MatrixXd::Constant(n + 2, 12, 7.0);
+  storage.topLeftCorner(n, 9) = b;
+  SolveLower(l, storage.topLeftCorner(n, 9));
+  EXPECT_LT(RelativeError(l * storage.topLeftCorner(n, 9), b), 1e-12);
+  storage.topLeftCorner(n, 9) = b;
+  SolveLowerTransposed(l, storage.topLeftCorner(n, 9));
+  EXPECT_LT(RelativeError(l.transpose() * storage.topLeftCorner(n, 9), b), 1e-12);
+  EXPECT_TRUE((storage.bottomRows(2).array() == 7.0).all());
+  EXPECT_TRUE((storage.rightCols(3).array() == 7.0).all());
+}
+
+INSTANTIATE_TEST_SUITE_P(Sizes, DenseLinearAlgebraTest, ::testing::Values(1, 5, 300));
+
+TEST(DenseLinearAlgebraTest, CholeskyReportsAnIndefiniteMatrix) {
+  Eigen::Matrix3d a;
+  a << 1, 2, 0, 2, 1, 0, 0, 0, 1;  // eigenvalues 3, -1, 1
+  Eigen::MatrixXd m = a;
+  EXPECT_FALSE(CholeskyInPlace(m));
+}
+
+TEST(DenseLinearAlgebraTest, EmptyMatricesAreFine) {
+  Eigen::MatrixXd empty(0, 0);
+  EXPECT_TRUE(CholeskyInPlace(empty));
+  EXPECT_EQ(InverseFromCholesky(empty).size(), 0);
+  Eigen::MatrixXd b(0, 3);
+  SolveLower(empty, b);
+  SolveLowerTransposed(empty, b);
+}
+
+}  // namespace
+}  // namespace excite::gp
