@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <random>
 #include <string>
 
 #include "absl/flags/flag.h"
@@ -26,6 +27,11 @@ ABSL_FLAG(double, max_signal_variance, excite::gp::FitOptions{}.max_signal_varia
 ABSL_FLAG(double, min_noise_variance, excite::gp::FitOptions{}.min_noise_variance, "");
 ABSL_FLAG(double, max_noise_variance, excite::gp::FitOptions{}.max_noise_variance, "");
 ABSL_FLAG(int, restarts, excite::gp::FitOptions{}.restarts, "");
+ABSL_FLAG(int, presearch_size, excite::gp::FitOptions{}.presearch_size, "");
+ABSL_FLAG(int, predict_points, 0,
+          "After the fit, time a prediction (mean and variance) at this many points "
+          "drawn uniformly from [-1, 1]^d.");
+ABSL_FLAG(double, reactivate_above, excite::gp::FitOptions{}.reactivate_above, "");
 ABSL_FLAG(int, max_iterations, excite::gp::FitOptions{}.max_iterations, "");
 ABSL_FLAG(double, gradient_tolerance, excite::gp::FitOptions{}.gradient_tolerance, "");
 ABSL_FLAG(double, function_tolerance, excite::gp::FitOptions{}.function_tolerance, "");
@@ -60,6 +66,8 @@ int Run() {
   options.max_noise_variance = absl::GetFlag(FLAGS_max_noise_variance);
   options.restarts = absl::GetFlag(FLAGS_restarts);
   options.max_iterations = absl::GetFlag(FLAGS_max_iterations);
+  options.presearch_size = absl::GetFlag(FLAGS_presearch_size);
+  options.reactivate_above = absl::GetFlag(FLAGS_reactivate_above);
   options.gradient_tolerance = absl::GetFlag(FLAGS_gradient_tolerance);
   options.function_tolerance = absl::GetFlag(FLAGS_function_tolerance);
 
@@ -81,9 +89,25 @@ int Run() {
     std::fprintf(stderr, "gp_fit_once: %s\n", fit.status().ToString().c_str());
     return 1;
   }
+  const int m = absl::GetFlag(FLAGS_predict_points);
+  double predict_seconds = 0.0;
+  if (m > 0) {
+    std::mt19937_64 rng(1);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    Eigen::MatrixXd xs(m, d);
+    for (int i = 0; i < m; ++i) {
+      for (int l = 0; l < d; ++l) xs(i, l) = uniform(rng);
+    }
+    Eigen::VectorXd mean, variance;
+    const auto p0 = std::chrono::steady_clock::now();
+    model.Predict(xs, &mean, &variance, nullptr, nullptr);
+    predict_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - p0).count();
+  }
   const Hyperparameters& h = model.hyperparameters();
   const std::string json = absl::StrCat(
-      "{\"seconds\": ", seconds, ", \"lml\": ", model.log_marginal_likelihood(),
+      "{\"predict_seconds\": ", predict_seconds, ", ", "\"seconds\": ", seconds,
+      ", \"lml\": ", model.log_marginal_likelihood(),
       ", \"evaluations\": ", fit->evaluations,
       ", \"presearch_evaluations\": ", fit->presearch_evaluations,
       ", \"iterations\": ", fit->iterations, ", \"starts\": ", fit->starts,

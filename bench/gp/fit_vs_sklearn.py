@@ -11,7 +11,7 @@ Data: inputs uniform in [-1, 1]^d (what the service's normalisation gives);
 targets a smooth function of the first min(d, 6) inputs (the others are
 irrelevant, as many of half-cheetah's 24 are for one output) plus noise of std
 0.1, standardised. Both run on the system's BLAS (after scripts/setup.sh:
-OpenBLAS's serial build, one thread each). To give scikit-learn OpenBLAS's threaded
+OpenBLAS's serial build, one thread each); excite is always run on it. To give scikit-learn OpenBLAS's threaded
 build instead, unpack libopenblas0-pthread's .deb somewhere and run this script
 with LD_LIBRARY_PATH=<there>/usr/lib/x86_64-linux-gnu/openblas-pthread; the
 first line of the output says which BLAS and how many threads it got.
@@ -56,7 +56,7 @@ def make_data(n, d, seed):
     return x, (y - y.mean()) / y.std()
 
 
-def fit_excite(binary, x, y, bounds):
+def fit_excite(binary, x, y, bounds, predict_points):
     with tempfile.NamedTemporaryFile("w", suffix=".txt", delete=False) as f:
         f.write(f"{x.shape[0]} {x.shape[1]}\n")
         np.savetxt(f, np.column_stack([x, y]), fmt="%.17g")
@@ -69,14 +69,17 @@ def fit_excite(binary, x, y, bounds):
              f"--min_signal_variance={bounds['signal_variance'][0]}",
              f"--max_signal_variance={bounds['signal_variance'][1]}",
              f"--min_noise_variance={bounds['noise_variance'][0]}",
-             f"--max_noise_variance={bounds['noise_variance'][1]}"],
-            check=True, capture_output=True, text=True).stdout
+             f"--max_noise_variance={bounds['noise_variance'][1]}",
+             f"--predict_points={predict_points}"],
+            check=True, capture_output=True, text=True,
+            # excite on the system's BLAS, whatever this script's process was given.
+            env={k: v for k, v in os.environ.items() if k != "LD_LIBRARY_PATH"}).stdout
     finally:
         os.unlink(path)
     return json.loads(out)
 
 
-def fit_sklearn(x, y, bounds):
+def fit_sklearn(x, y, bounds, predict_points):
     d = x.shape[1]
     kernel = (ConstantKernel(1.0, bounds["signal_variance"]) *
               RBF(np.ones(d), bounds["lengthscale"]) +
@@ -88,11 +91,18 @@ def fit_sklearn(x, y, bounds):
         warnings.simplefilter("ignore", ConvergenceWarning)
         gp.fit(x, y)
     seconds = time.perf_counter() - t0
+    xq = np.random.default_rng(1).uniform(-1.0, 1.0, size=(predict_points, x.shape[1]))
+    t0 = time.perf_counter()
+    gp.predict(xq, return_std=True)
+    predict_seconds = time.perf_counter() - t0
     k = gp.kernel_
     return {
         "seconds": seconds,
+        "predict_seconds": predict_seconds,
         "lml": float(gp.log_marginal_likelihood_value_),
         "lengthscales": list(np.atleast_1d(k.k1.k2.length_scale)),
+        "signal_variance": float(k.k1.k1.constant_value),
+        "noise_variance": float(k.k2.noise_level),
     }
 
 
@@ -105,6 +115,12 @@ def main():
                    default=DEFAULT_BOUNDS["lengthscale"][1],
                    help="upper lengthscale bound for both (excite's default)")
     p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--predict_points", type=int, default=10000,
+                   help="after each fit, time a prediction (mean and std) at this "
+                        "many points")
+    p.add_argument("--max_lml_deficit", type=float, default=None,
+                   help="exit 1 if excite's LML is below scikit-learn's by more "
+                        "than this on any size (the ctest smoke run's check)")
     args = p.parse_args()
     bounds = dict(DEFAULT_BOUNDS)
     bounds["lengthscale"] = (bounds["lengthscale"][0], args.max_lengthscale)
@@ -115,20 +131,29 @@ def main():
     print(f"bounds: {bounds}; scikit-learn's BLAS (api, version, threads, file): "
           f"{blas}; cores {os.cpu_count()}")
     print("| n, d | excite fit | evaluations | scikit-learn fit | ratio | "
-          "LML excite - sklearn | at upper bound (excite / sklearn) |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+          "LML excite - sklearn | at upper bound (excite / sklearn) | "
+          f"predict {args.predict_points} (excite / sklearn) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    worst_deficit = 0.0
     for size in args.sizes.split(","):
         n, d = (int(v) for v in size.split("x"))
         x, y = make_data(n, d, args.seed)
-        ours = fit_excite(args.fit_binary, x, y, bounds)
-        theirs = fit_sklearn(x, y, bounds)
+        ours = fit_excite(args.fit_binary, x, y, bounds, args.predict_points)
+        theirs = fit_sklearn(x, y, bounds, args.predict_points)
         cap = 0.999 * bounds["lengthscale"][1]
         at_cap = (sum(l >= cap for l in ours["lengthscales"]),
                   sum(l >= cap for l in theirs["lengthscales"]))
         print(f"| {n}, {d} | {ours['seconds']:.2f} s | {ours['evaluations']} | "
               f"{theirs['seconds']:.2f} s | {theirs['seconds'] / ours['seconds']:.1f}x | "
-              f"{ours['lml'] - theirs['lml']:+.3f} | {at_cap[0]} / {at_cap[1]} |",
+              f"{ours['lml'] - theirs['lml']:+.3f} | {at_cap[0]} / {at_cap[1]} | "
+              f"{ours['predict_seconds']:.3f} / {theirs['predict_seconds']:.3f} s |",
               flush=True)
+        worst_deficit = max(worst_deficit, theirs["lml"] - ours["lml"])
+    if args.max_lml_deficit is not None and worst_deficit > args.max_lml_deficit:
+        print(f"excite's LML is {worst_deficit:.3f} below scikit-learn's "
+              f"(allowed: {args.max_lml_deficit})", file=sys.stderr)
+        return 1
+    return 0
 
 
 if __name__ == "__main__":

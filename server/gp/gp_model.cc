@@ -182,16 +182,21 @@ Eigen::VectorXd GpModel::LogMarginalLikelihoodGradient() const {
   const Eigen::Index d = x_.cols();
   Eigen::VectorXd grad(d + 2);
   if (n == 0) return grad.setZero();
-  Eigen::MatrixXd w = InverseFromCholesky(l_.topLeftCorner(n, n));
-  w = alpha_ * alpha_.transpose() - w;  // W = alpha alpha^T - K^-1
   // K_f as cached by the last factorisation, or recomputed after row appends.
-  const Eigen::MatrixXd a =
-      kf_.rows() == n
-          ? w.cwiseProduct(kf_)
-          : w.cwiseProduct(Covariance(x_scaled_, hyperparameters_.signal_variance));
+  const Eigen::MatrixXd recomputed =
+      kf_.rows() == n ? Eigen::MatrixXd()
+                      : Covariance(x_scaled_, hyperparameters_.signal_variance);
+  const Eigen::MatrixXd& kf = kf_.rows() == n ? kf_ : recomputed;
+  // A = W o K_f with W = alpha alpha^T - K^-1, in place of K^-1, one column at a
+  // time (n x n temporaries cost page faults and memory traffic at large n).
+  Eigen::MatrixXd a = InverseFromCholesky(l_.topLeftCorner(n, n));
+  const double trace_w = alpha_.squaredNorm() - a.trace();
+  for (int j = 0; j < n; ++j) {
+    a.col(j) = (alpha_ * alpha_(j) - a.col(j)).cwiseProduct(kf.col(j));
+  }
   grad(0) = 0.5 * a.sum();
   grad.segment(1, d) = LogLengthscaleGradient(a, x_scaled_);
-  grad(d + 1) = 0.5 * hyperparameters_.noise_variance * w.trace();
+  grad(d + 1) = 0.5 * hyperparameters_.noise_variance * trace_w;
   return grad;
 }
 
@@ -200,33 +205,39 @@ void GpModel::Predict(const Eigen::MatrixXd& xs, Eigen::VectorXd* mean,
                       Eigen::MatrixXd* variance_jacobian) const {
   const Eigen::VectorXd& ls = hyperparameters_.lengthscales;
   const double sf2 = hyperparameters_.signal_variance;
-  const Eigen::MatrixXd s = ScaleInputs(xs, ls);
-  const Eigen::MatrixXd ks = CrossCovariance(s, x_scaled_, sf2);  // m x n
+  // K(X, xs), n x m: the layout the triangular solve wants, built without a
+  // transposed copy (a batch of 10,000 points at n = 1000 is 80 MB).
+  Eigen::MatrixXd v = CrossCovariance(x_scaled_, ScaleInputs(xs, ls), sf2);
   const Eigen::VectorXd inv_l2 = ls.cwiseAbs2().cwiseInverse();
-  if (mean != nullptr) *mean = ks * alpha_;
+  const Eigen::VectorXd k_alpha = v.transpose() * alpha_;  // the mean
   if (mean_jacobian != nullptr) {
-    // d mean_i / d xs_il = -sum_j k_ij alpha_j (xs_il - x_jl) / l_l^2.
-    const Eigen::MatrixXd c = ks * alpha_.asDiagonal();
-    Eigen::MatrixXd cx = c * x_;
-    *mean_jacobian = (cx - xs.cwiseProduct(c.rowwise().sum().replicate(1, xs.cols()))) *
-                     inv_l2.asDiagonal();
+    // d mean_i / d xs_il = -sum_j k_ji alpha_j (xs_il - x_jl) / l_l^2.
+    const Eigen::MatrixXd cx = v.transpose() * (alpha_.asDiagonal() * x_);
+    *mean_jacobian =
+        (cx - xs.cwiseProduct(k_alpha.replicate(1, xs.cols()))) * inv_l2.asDiagonal();
   }
+  if (mean != nullptr) *mean = k_alpha;
   if (variance == nullptr && variance_jacobian == nullptr) return;
-  Eigen::MatrixXd v = ks.transpose();       // n x m
-  SolveLower(l_.topLeftCorner(n_, n_), v);  // V = L \ K*^T
+  if (variance_jacobian == nullptr) {
+    SolveLower(l_.topLeftCorner(n_, n_), v);  // V = L \ K(X, xs)
+    *variance =
+        (sf2 - v.colwise().squaredNorm().array()).cwiseMax(0.0).matrix().transpose();
+    return;
+  }
+  const Eigen::MatrixXd k = v;
+  SolveLower(l_.topLeftCorner(n_, n_), v);
   if (variance != nullptr) {
     *variance =
         (sf2 - v.colwise().squaredNorm().array()).cwiseMax(0.0).matrix().transpose();
   }
-  if (variance_jacobian != nullptr) {
-    // w = L^T \ V = K^-1 K*^T; d var_i / d xs_il = 2 sum_j k_ij w_ji (xs_il - x_jl) /
-    // l_l^2.
-    SolveLowerTransposed(l_.topLeftCorner(n_, n_), v);
-    const Eigen::MatrixXd c = ks.cwiseProduct(v.transpose());
-    *variance_jacobian =
-        2.0 * (xs.cwiseProduct(c.rowwise().sum().replicate(1, xs.cols())) - c * x_) *
-        inv_l2.asDiagonal();
-  }
+  // w = L^T \ V = K^-1 K(X, xs); d var_i / d xs_il =
+  // 2 sum_j k_ji w_ji (xs_il - x_jl) / l_l^2.
+  SolveLowerTransposed(l_.topLeftCorner(n_, n_), v);
+  const Eigen::MatrixXd c = k.cwiseProduct(v);  // n x m
+  const Eigen::VectorXd c_sums = c.colwise().sum().transpose();
+  *variance_jacobian =
+      2.0 * (xs.cwiseProduct(c_sums.replicate(1, xs.cols())) - c.transpose() * x_) *
+      inv_l2.asDiagonal();
 }
 
 Eigen::MatrixXd GpModel::CrossFactor(const Eigen::MatrixXd& xs) const {

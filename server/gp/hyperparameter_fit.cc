@@ -248,8 +248,7 @@ absl::StatusOr<FitSummary> FitHyperparameters(
   summary.fitted = true;
   double best_f = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_theta;
-  for (const Eigen::VectorXd& start : starts) {
-    if (summary.stopped) break;
+  auto run = [&](const Eigen::VectorXd& start) {
     ++summary.starts;
     objective.ResetBest();
     Eigen::VectorXd theta = start;
@@ -269,7 +268,28 @@ absl::StatusOr<FitSummary> FitHyperparameters(
       best_f = objective.best_f();
       best_theta = objective.best_theta();
     }
+  };
+  for (const Eigen::VectorXd& start : starts) {
     if (summary.stopped) break;
+    run(start);
+  }
+  // Reactivation (cold fits): ARD can park a relevant input at a long lengthscale,
+  // where the LML is flat, and stop there; one more start from the best point with
+  // those inputs back at lengthscale 1 lets them in again (a truly irrelevant input
+  // goes back out). After a presearch the subset's fit did it.
+  if (!warm_start.has_value() && options.reactivate_above > 0.0 &&
+      best_theta.size() == p && !summary.stopped) {
+    Eigen::VectorXd start = best_theta;
+    bool parked = false;
+    for (int i = 1; i <= d; ++i) {
+      if (start(i) > std::log(options.reactivate_above)) {
+        start(i) = std::clamp(0.0, lb(i), ub(i));
+        parked = true;
+      }
+    }
+    // ... and with a tenth of the fitted noise, which had absorbed their effect.
+    if (fit_noise) start(d + 1) = std::max(lb(d + 1), start(d + 1) - std::log(10.0));
+    if (parked) run(start);
   }
   summary.evaluations = summary.presearch_evaluations + objective.evaluations();
   absl::Status status;

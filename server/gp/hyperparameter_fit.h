@@ -56,6 +56,9 @@ struct FitOptions {
   // polish only the best of them on all the data: an evaluation on the subset
   // costs (presearch_size / n)^3 of one on all of it.
   int presearch_size = 256;
+  // A cold fit whose best point has lengthscales above reactivate_above (0: never)
+  // runs one more start from it with those at 1 (hyperparameter_fit.cc says why).
+  double reactivate_above = 5.0;
   // L-BFGS-B iterations per start.
   int max_iterations = 60;
   // The objective is -LML / max(1, n) (scale-free). A start stops when its

@@ -198,7 +198,10 @@ TEST(DynamicsModelTest, FitLearnsPendulumAndIsDeterministic) {
         m->AddSamples(d.x.topRows(150), d.u.topRows(150), d.next.topRows(150)).ok());
     const absl::StatusOr<FitSummary> cold = m->Refit();
     ASSERT_TRUE(cold.ok()) << cold.status();
-    EXPECT_EQ(cold->starts, 2 * (1 + o.fit.restarts));
+    // Each output: the default and random starts, and a reactivation start when an
+    // input was parked (the pendulum's angle update ignores the torque).
+    EXPECT_GE(cold->starts, 2 * (1 + o.fit.restarts));
+    EXPECT_LE(cold->starts, 2 * (2 + o.fit.restarts));
     ASSERT_TRUE(
         m->AddSamples(d.x.bottomRows(50), d.u.bottomRows(50), d.next.bottomRows(50))
             .ok());

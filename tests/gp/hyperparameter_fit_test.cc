@@ -166,6 +166,39 @@ TEST(HyperparameterFitTest, PresearchOnASubsetFindsTheFullDataOptimum) {
   EXPECT_LT(a.LogMarginalLikelihoodGradient().cwiseAbs().maxCoeff(), 1e-2 * n);
 }
 
+// An input the data ignores ends at a long lengthscale; a cold fit then runs one
+// more start with it back at 1 (and less noise), keeps the better optimum, and the
+// input goes back out.
+TEST(HyperparameterFitTest, ReactivationStartRunsWhenAnInputIsParked) {
+  Hyperparameters truth = Truth();
+  truth.lengthscales = Eigen::Vector3d(0.3, 1.5, 1e4);  // the third input is ignored
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+  SampleFromGp(truth, 150, 8, &x, &y);
+  FitOptions with;
+  FitOptions without = with;
+  without.reactivate_above = 0.0;
+  Hyperparameters start = truth;
+  start.lengthscales.setOnes();
+  GpModel a, b;
+  ASSERT_TRUE(a.Reset(x, y, start).ok());
+  ASSERT_TRUE(b.Reset(x, y, start).ok());
+  const absl::StatusOr<FitSummary> reactivated =
+      FitHyperparameters(with, 1e-4, true, std::nullopt, &a);
+  const absl::StatusOr<FitSummary> plain =
+      FitHyperparameters(without, 1e-4, true, std::nullopt, &b);
+  ASSERT_TRUE(reactivated.ok() && plain.ok());
+  EXPECT_EQ(plain->starts, 1 + with.restarts);
+  EXPECT_EQ(reactivated->starts, 1 + with.restarts + 1);
+  EXPECT_GE(a.log_marginal_likelihood(), b.log_marginal_likelihood() - 1e-9);
+  EXPECT_GT(a.hyperparameters().lengthscales(2), with.reactivate_above);
+  // Warm fits never run it.
+  const absl::StatusOr<FitSummary> warm =
+      FitHyperparameters(with, 1e-4, true, a.hyperparameters(), &a);
+  ASSERT_TRUE(warm.ok());
+  EXPECT_EQ(warm->starts, 2 + with.warm_restarts);
+}
+
 TEST(HyperparameterFitTest, DeterministicForSeed) {
   Eigen::MatrixXd x;
   Eigen::VectorXd y;
