@@ -276,7 +276,8 @@ absl::StatusOr<FitSummary> FitHyperparameters(
   // Reactivation (cold fits): ARD can park a relevant input at a long lengthscale,
   // where the LML is flat, and stop there; one more start from the best point with
   // those inputs back at lengthscale 1 lets them in again (a truly irrelevant input
-  // goes back out). After a presearch the subset's fit did it.
+  // goes back out). After a presearch it runs in the subset's fit and again here,
+  // on all data: 256 samples of 24 inputs missed small effects at n = 2000.
   if (!warm_start.has_value() && options.reactivate_above > 0.0 &&
       best_theta.size() == p && !summary.stopped) {
     Eigen::VectorXd start = best_theta;
