@@ -7,10 +7,18 @@
 #include <algorithm>
 #include <cassert>
 
+#include "absl/base/const_init.h"
 #include "absl/status/status.h"
+#include "absl/synchronization/mutex.h"
 
 namespace excite::gp {
 namespace {
+
+// Debian's serial OpenBLAS gave an intermittently wrong factorisation when two
+// threads (a model's outputs fitted in parallel) called it at once (1 run in ~25
+// of DynamicsModelTest.IllConditionedDataGivesFinitePredictions): its calls are
+// serialised until that is understood.
+absl::Mutex blas_mutex(absl::kConstInit);
 
 // LAPACK's Fortran interface takes every argument by pointer.
 lapack_int Stride(const Eigen::Ref<const Eigen::MatrixXd>& m) {
@@ -29,6 +37,7 @@ void Solve(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Ref<Eigen::MatrixX
   lapack_int info = 0;
   // dtrtrs: dtrsm after a check for a zero pivot, which a factor with positive
   // pivots does not have.
+  absl::MutexLock lock(&blas_mutex);
   LAPACK_dtrtrs(&lower, &transpose, &non_unit, &n, &nrhs, l.data(), &lda, b.data(), &ldb,
                 &info);
   assert(info == 0);
@@ -43,7 +52,10 @@ bool CholeskyInPlace(Eigen::Ref<Eigen::MatrixXd> a) {
   const lapack_int lda = Stride(a);
   lapack_int info = 0;
   const char lower = 'L';
-  LAPACK_dpotrf(&lower, &n, a.data(), &lda, &info);
+  {
+    absl::MutexLock lock(&blas_mutex);
+    LAPACK_dpotrf(&lower, &n, a.data(), &lda, &info);
+  }
   return info == 0;
 }
 
@@ -55,7 +67,10 @@ Eigen::MatrixXd InverseFromCholesky(const Eigen::Ref<const Eigen::MatrixXd>& l) 
   inverse.triangularView<Eigen::Lower>() = l.triangularView<Eigen::Lower>();
   lapack_int info = 0;
   const char lower = 'L';
-  LAPACK_dpotri(&lower, &n, inverse.data(), &n, &info);
+  {
+    absl::MutexLock lock(&blas_mutex);
+    LAPACK_dpotri(&lower, &n, inverse.data(), &n, &info);
+  }
   // info > 0 only for a zero diagonal entry, which a successful factorisation
   // (positive pivots) cannot leave.
   assert(info == 0);

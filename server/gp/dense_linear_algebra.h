@@ -13,7 +13,7 @@ namespace excite::gp {
 // binary gets them; Eigen's own kernels only use the instructions the build
 // targets (SSE2 for a portable x86-64 build), 3-4x slower here at n >= 500
 // (bench/gp). Each call runs on the calling thread; calls from several threads
-// may run at once (the serial OpenBLAS locks its buffer pool).
+// are serialised (see dense_linear_algebra.cc).
 //
 // Matrices may be blocks of larger ones (the leading dimension is the outer
 // stride), column-major, as Eigen stores them.
