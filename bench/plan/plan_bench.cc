@@ -1,10 +1,11 @@
 // One receding-horizon step of rec, mi and roi (DynamicsModel::Refit +
 // Planner::PlanInputs), one `pa` and one `sep` plan on the pendulum with n = 300 samples
 // and M = 15, the paper's setting (sim/configs/pendulum.textproto: m = l = 1, b = 0.1, dt
-// = 0.1 s, |u| <= 3, measurement noise variance 0.05). Counters split the time into refit
-// and plan.
+// = 0.1 s, |u| <= 3, measurement noise variance 0.05), and the rec loop from n = 100 to
+// 2000 under a refit schedule. Counters split the time into refit and plan.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -13,6 +14,7 @@
 
 #include "absl/status/status.h"
 #include "server/gp/dynamics_model.h"
+#include "server/gp/refit_schedule.h"
 #include "server/plan/planner.h"
 #include "sim/plants/pendulum.h"
 
@@ -139,6 +141,59 @@ BENCHMARK(BM_RecStep)
     ->Args({0, -1, 1})
     ->Args({0, -1, 2})
     ->Iterations(10)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The rec loop as a session runs it as n grows: add the newest transition, refit
+// when the schedule says so (warm-started), plan. Args: (n at the start, refit
+// growth in per mille: 0 refits at every sample, as the paper). Reports the median
+// and the slowest step, and how many of the 40 steps refitted.
+void BM_RecStepAtSize(benchmark::State& state) {
+  const int n0 = static_cast<int>(state.range(0));
+  gp::RefitSchedule schedule;
+  schedule.growth = static_cast<double>(state.range(1)) / 1000.0;
+  const int kSteps = 40;
+  const Transitions data = PendulumData(n0 + kSteps);
+  gp::DynamicsModel model = FittedPendulumModel(data, n0);
+  Planner planner(PendulumOptions(Strategy::kRec));
+  std::vector<double> step_ms;
+  int refits = 0;
+  int k = n0;
+  for (auto _ : state) {
+    if (k >= n0 + kSteps) {
+      state.SkipWithError("too many iterations for the pregenerated data");
+      break;
+    }
+    const Clock::time_point t0 = Clock::now();
+    absl::Status ok =
+        model.AddSamples(data.states.row(k), data.inputs.row(k), data.next.row(k));
+    if (ok.ok() &&
+        gp::RefitDue(schedule, model.sample_count(), model.samples_since_fit())) {
+      ok = model.Refit().status();
+      ++refits;
+    }
+    PlanSummary summary;
+    auto plan = ok.ok() ? planner.PlanInputs(model, data.next.row(k).transpose(),
+                                             PlanLimits{}, &summary)
+                        : absl::StatusOr<Plan>(ok);
+    step_ms.push_back(Ms(Clock::now() - t0));
+    ++k;
+    if (!plan.ok()) {
+      state.SkipWithError("add, refit or plan failed");
+      break;
+    }
+    benchmark::DoNotOptimize(plan->inputs.data());
+  }
+  if (step_ms.empty()) return;
+  std::sort(step_ms.begin(), step_ms.end());
+  state.counters["step_ms_p50"] = step_ms[step_ms.size() / 2];
+  state.counters["step_ms_max"] = step_ms.back();
+  state.counters["refits"] = refits;
+}
+BENCHMARK(BM_RecStepAtSize)
+    ->ArgsProduct({{100, 300, 500, 1000}, {0, 50}})
+    ->Args({2000, 50})
+    ->Iterations(40)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -503,6 +503,16 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
                                                kDefaultRefitEverySamples, 1, 1000000);
   problems.Add(every_ok);
   if (every_ok.ok()) refit->set_every_samples(every);
+  if (!refit->has_growth()) {
+    refit->set_growth(kDefaultRefitGrowth);
+  } else if (!(std::isfinite(refit->growth()) && refit->growth() >= 0.0 &&
+               refit->growth() <= 10.0)) {
+    problems.Add(
+        Invalid(Field(rpath, "growth"),
+                absl::StrCat("must be a fraction of the fitted samples in [0, 10], "
+                             "got ",
+                             refit->growth())));
+  }
   int32_t min_samples = refit->min_samples();
   const absl::Status min_ok = IntWithDefault(Field(rpath, "min_samples"), &min_samples,
                                              kDefaultMinSamples, 2, 1000000);

@@ -21,7 +21,11 @@ inline constexpr int kMaxFitIterations = 1000;
 // Defaults the proto documents that have no home in the engine's option structs.
 inline constexpr double kDefaultTimeBudgetS = 10.0;  // planner.time_budget_s
 inline constexpr int kDefaultRefitEverySamples = 1;  // refit.every_samples
-inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
+// refit.growth: the amortised refit stays under a tenth of a pendulum rec step at
+// any n (bench/plan BM_RecStepAtSize: a warm refit at n = 500 costs about one plan,
+// and refit / plan grows as n, which growth * n refits apart cancels).
+inline constexpr double kDefaultRefitGrowth = 0.05;
+inline constexpr int kDefaultMinSamples = 2;  // refit.min_samples
 
 // Validates a SessionConfig, wherever it comes from (CreateSession on the wire or a
 // textproto file), and fills the defaults in place so that the stored config says
@@ -46,7 +50,8 @@ inline constexpr int kDefaultMinSamples = 2;         // refit.min_samples
 //   target: UNSPECIFIED -> DELTA; strategy: UNSPECIFIED -> REC; unknown values are
 //     rejected; STRATEGY_SEP and STRATEGY_ROI require state_dim state_bounds;
 //   horizon in [0, 200] (0: default 15); GREEDY forces 1;
-//   refit.every_samples in [0, 1000000] (0: default 1); refit.min_samples in
+//   refit.every_samples in [0, 1000000] (0: default 1); refit.growth finite in
+//     [0, 10] (unset: 0.05); refit.min_samples in
 //     {0} or [2, 1000000] (0: default 2; a fit needs 2 samples);
 //   planner.max_iterations in [0, 10000] (0: default 100); planner.restarts in
 //     [0, 100] (0: default 1); planner.tolerance 0 (default 1e-4) or finite in

@@ -420,8 +420,11 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
         "session ", name_, " has ", sample_count_, " samples; at least ", min_samples,
         " are needed before Predict/PlanInputs: stream data with AddData first"));
   }
-  const bool refit_due = config_.kernel().fit() && !config_.refit().never() &&
-                         model_->samples_since_fit() >= config_.refit().every_samples();
+  const gp::RefitSchedule schedule{config_.refit().every_samples(),
+                                   config_.refit().growth()};
+  const bool refit_due =
+      config_.kernel().fit() && !config_.refit().never() &&
+      gp::RefitDue(schedule, model_->sample_count(), model_->samples_since_fit());
   if (model_->fitted() && !refit_due) return absl::OkStatus();
   if (!refit_due && config_.kernel().fit() && !config_.refit().never() &&
       !model_->hyperparameters().empty()) {

@@ -16,6 +16,7 @@
 #include "excite/v1/exploration_service.pb.h"
 #include "excite/v1/session_config.pb.h"
 #include "server/gp/dynamics_model.h"
+#include "server/gp/refit_schedule.h"
 #include "server/plan/planner.h"
 #include "server/service/memory_budget.h"
 #include "server/service/metrics.h"
@@ -34,12 +35,12 @@ namespace excite::service {
 //
 // Refit is lazy: Predict/PlanInputs (PlanInputs only for the strategies that use
 // the model) refit first when the model was never fitted,
-// or when kernel.fit is on, refit.never is off and at least refit.every_samples
-// samples arrived since the last fit. After a refit the hyperparameters are saved
-// in the store (a failure to save is logged, not returned: they are a cache).
-// A refit honours the calling RPC's deadline and cancellation: it stops with the
-// best hyperparameters found so far, the call fails with DEADLINE_EXCEEDED or
-// CANCELLED, and the next call continues the fit from there.
+// or when kernel.fit is on, refit.never is off and the refit policy's
+// gp::RefitSchedule is due (every_samples and growth since the last fit). After a refit
+// the hyperparameters are saved in the store (a failure to save is logged, not returned:
+// they are a cache). A refit honours the calling RPC's deadline and cancellation: it
+// stops with the best hyperparameters found so far, the call fails with DEADLINE_EXCEEDED
+// or CANCELLED, and the next call continues the fit from there.
 class Session {
  public:
   using Clock = std::chrono::steady_clock;

@@ -55,6 +55,7 @@ TEST(ConfigValidationTest, FillsDocumentedDefaults) {
   EXPECT_EQ(config.kernel().restarts(), 2);
   EXPECT_EQ(config.kernel().max_iterations(), 60);
   EXPECT_EQ(config.refit().every_samples(), 1);
+  EXPECT_EQ(config.refit().growth(), 0.05);
   EXPECT_EQ(config.refit().min_samples(), 2);
   EXPECT_FALSE(config.refit().never());
   EXPECT_EQ(config.planner().max_iterations(), 100);
@@ -74,6 +75,7 @@ TEST(ConfigValidationTest, KeepsExplicitValues) {
   config.set_target(v1::TARGET_NEXT);
   config.mutable_planner()->set_time_budget_s(0.5);
   config.mutable_refit()->set_every_samples(5);
+  config.mutable_refit()->set_growth(0.0);  // set, so not the default
   config.mutable_refit()->set_min_samples(10);
   ASSERT_TRUE(ValidateSessionConfig(&config).ok());
   EXPECT_EQ(config.horizon(), 7);
@@ -81,6 +83,7 @@ TEST(ConfigValidationTest, KeepsExplicitValues) {
   EXPECT_EQ(config.target(), v1::TARGET_NEXT);
   EXPECT_EQ(config.planner().time_budget_s(), 0.5);
   EXPECT_EQ(config.refit().every_samples(), 5);
+  EXPECT_EQ(config.refit().growth(), 0.0);
   EXPECT_EQ(config.refit().min_samples(), 10);
 }
 
@@ -285,6 +288,11 @@ TEST(ConfigValidationTest, RefitAndPlanner) {
   v1::SessionConfig c = Valid();
   c.mutable_refit()->set_every_samples(-1);
   ExpectInvalid(c, "config.refit.every_samples");
+  for (double growth : {-0.01, 10.5, std::nan("")}) {
+    c = Valid();
+    c.mutable_refit()->set_growth(growth);
+    ExpectInvalid(c, "config.refit.growth", "[0, 10]");
+  }
   c = Valid();
   c.mutable_refit()->set_min_samples(1);
   ExpectInvalid(c, "config.refit.min_samples", "[2, 1000000]");

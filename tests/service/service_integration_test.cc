@@ -489,13 +489,15 @@ TEST_F(ServiceTest, PredictionsSurviveRestartAndImportInEveryRefitPolicy) {
   struct Policy {
     const char* id;
     int every_samples;
+    double growth;
     bool never;
     bool fixed;
   };
-  const Policy policies[] = {{"every-1", 1, false, false},
-                             {"every-5", 5, false, false},
-                             {"never", 0, true, false},
-                             {"fixed", 0, false, true}};
+  const Policy policies[] = {{"every-1", 1, 0.0, false, false},
+                             {"every-5", 5, 0.0, false, false},
+                             {"growth-20", 1, 0.2, false, false},
+                             {"never", 0, 0.0, true, false},
+                             {"fixed", 0, 0.0, false, true}};
   v1::PredictRequest predict;
   for (double v : {0.3, -0.4, 1.0, -2.0, 5.0, -1.5}) predict.add_inputs(v);
   std::vector<v1::PredictResponse> before;
@@ -512,14 +514,15 @@ TEST_F(ServiceTest, PredictionsSurviveRestartAndImportInEveryRefitPolicy) {
       }
     }
     config.mutable_refit()->set_every_samples(p.every_samples);
+    config.mutable_refit()->set_growth(p.growth);
     config.mutable_refit()->set_never(p.never);
     const std::string name = Create(p.id, config).name();
     EXPECT_EQ(client_->GetSession(name)->config().kernel().fit(), !p.fixed);
     Add(name, {PendulumTransitions(25, 0, 31)});
     predict.set_session(name);
     ASSERT_TRUE(client_->Predict(predict).ok());
-    // 3 more: every-1 refits at the next Predict, every-5 does not, the others
-    // never do; each moves the prior mean.
+    // 3 more: every-1 refits at the next Predict, every-5 and growth-20 (20 % of
+    // 25: 5) do not, the others never do; each moves the prior mean.
     Add(name, {PendulumTransitions(3, 25, 32)});
     absl::StatusOr<v1::PredictResponse> response = client_->Predict(predict);
     ASSERT_TRUE(response.ok()) << response.status();
@@ -550,6 +553,27 @@ TEST_F(ServiceTest, PredictionsSurviveRestartAndImportInEveryRefitPolicy) {
     ASSERT_TRUE(client_->ImportSession(*archive, id).ok());
     expect_same(absl::StrCat("sessions/", id), before[k]);
   }
+}
+
+// refit.growth spaces refits: with 0.2, a fit on 25 samples is next due 5 samples
+// later (a refit is a model version of its own; each stored sample is one too).
+TEST_F(ServiceTest, RefitGrowthWaitsForAFractionOfTheFittedSamples) {
+  v1::SessionConfig config = PendulumConfig();
+  config.mutable_refit()->set_growth(0.2);
+  const std::string name = Create("growth", config).name();
+  Add(name, {PendulumTransitions(25, 0, 41)});
+  v1::PredictRequest predict;
+  predict.set_session(name);
+  for (double v : {0.3, -0.4, 1.0}) predict.add_inputs(v);
+  ASSERT_TRUE(client_->Predict(predict).ok());  // the first fit
+  const int64_t after_four = Add(name, {PendulumTransitions(4, 25, 42)}).model_version();
+  absl::StatusOr<v1::PredictResponse> response = client_->Predict(predict);
+  ASSERT_TRUE(response.ok()) << response.status();
+  EXPECT_EQ(response->model_version(), after_four);  // 4 < 5: no refit
+  const int64_t after_five = Add(name, {PendulumTransitions(1, 29, 43)}).model_version();
+  response = client_->Predict(predict);
+  ASSERT_TRUE(response.ok()) << response.status();
+  EXPECT_EQ(response->model_version(), after_five + 1);  // refitted
 }
 
 // A refitting session comes back from a restart with its last fitted
