@@ -19,7 +19,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "common/usage.h"
-#include "server/gp/dense_linear_algebra.h"
+#include "server/blas/blas_lock.h"
 #include "server/service/auth.h"
 #include "server/service/excite_server.h"
 #include "server/service/logging.h"
@@ -72,7 +72,7 @@ int Run(int argc, char** argv) {
     return 2;
   }
   excite::service::SetLogLevel(*level);
-  if (absl::Status blas = excite::gp::CheckBlasRunsOnTheCallingThread(); !blas.ok()) {
+  if (absl::Status blas = excite::blas::CheckBlasRunsOnTheCallingThread(); !blas.ok()) {
     std::fprintf(stderr, "excite-server: %s\n", std::string(blas.message()).c_str());
     return 2;
   }

@@ -1,24 +1,15 @@
 #include "server/gp/dense_linear_algebra.h"
 
-#include <dlfcn.h>
 #include <lapack.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cassert>
 
-#include "absl/base/const_init.h"
-#include "absl/status/status.h"
-#include "absl/synchronization/mutex.h"
+#include "server/blas/blas_lock.h"
 
 namespace excite::gp {
 namespace {
-
-// Debian's serial OpenBLAS gave an intermittently wrong factorisation when two
-// threads (a model's outputs fitted in parallel) called it at once (1 run in ~25
-// of DynamicsModelTest.IllConditionedDataGivesFinitePredictions): its calls are
-// serialised until that is understood.
-absl::Mutex blas_mutex(absl::kConstInit);
 
 // LAPACK's Fortran interface takes every argument by pointer.
 lapack_int Stride(const Eigen::Ref<const Eigen::MatrixXd>& m) {
@@ -37,7 +28,7 @@ void Solve(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Ref<Eigen::MatrixX
   lapack_int info = 0;
   // dtrtrs: dtrsm after a check for a zero pivot, which a factor with positive
   // pivots does not have.
-  absl::MutexLock lock(&blas_mutex);
+  const blas::BlasLock lock;
   LAPACK_dtrtrs(&lower, &transpose, &non_unit, &n, &nrhs, l.data(), &lda, b.data(), &ldb,
                 &info);
   assert(info == 0);
@@ -53,7 +44,7 @@ bool CholeskyInPlace(Eigen::Ref<Eigen::MatrixXd> a) {
   lapack_int info = 0;
   const char lower = 'L';
   {
-    absl::MutexLock lock(&blas_mutex);
+    const blas::BlasLock lock;
     LAPACK_dpotrf(&lower, &n, a.data(), &lda, &info);
   }
   return info == 0;
@@ -68,7 +59,7 @@ Eigen::MatrixXd InverseFromCholesky(const Eigen::Ref<const Eigen::MatrixXd>& l) 
   lapack_int info = 0;
   const char lower = 'L';
   {
-    absl::MutexLock lock(&blas_mutex);
+    const blas::BlasLock lock;
     LAPACK_dpotri(&lower, &n, inverse.data(), &n, &info);
   }
   // info > 0 only for a zero diagonal entry, which a successful factorisation
@@ -88,23 +79,6 @@ void SolveLower(const Eigen::Ref<const Eigen::MatrixXd>& l,
 void SolveLowerTransposed(const Eigen::Ref<const Eigen::MatrixXd>& l,
                           Eigen::Ref<Eigen::MatrixXd> b) {
   Solve(l, b, 'T');
-}
-
-absl::Status CheckBlasRunsOnTheCallingThread() {
-  // OpenBLAS's threaded builds define openblas_get_parallel() != 0; other BLAS
-  // libraries do not define it.
-  using GetParallel = int (*)();
-  const auto get_parallel =
-      reinterpret_cast<GetParallel>(dlsym(RTLD_DEFAULT, "openblas_get_parallel"));
-  if (get_parallel == nullptr || get_parallel() == 0) return absl::OkStatus();
-  return absl::FailedPreconditionError(
-      "the system's BLAS is a threaded OpenBLAS (libopenblas0-pthread or -openmp). It "
-      "starts threads before main() that take SIGTERM, and its 60 KB of static TLS "
-      "overflows the metrics server's thread stacks. Select the serial build: apt-get "
-      "install libopenblas0-serial, then update-alternatives --set "
-      "libblas.so.3-x86_64-linux-gnu "
-      "/usr/lib/x86_64-linux-gnu/openblas-serial/libblas.so.3 and the same for "
-      "liblapack.so.3 (scripts/setup.sh does both)");
 }
 
 }  // namespace excite::gp

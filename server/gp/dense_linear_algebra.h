@@ -3,8 +3,6 @@
 
 #include <Eigen/Dense>
 
-#include "absl/status/status.h"
-
 namespace excite::gp {
 
 // The O(n^3) and O(n^2 m) kernels of the exact GP, on the system's LAPACK and
@@ -12,8 +10,8 @@ namespace excite::gp {
 // OpenBLAS picks AVX2/FMA or AVX-512 code for the CPU at run time, so a portable
 // binary gets them; Eigen's own kernels only use the instructions the build
 // targets (SSE2 for a portable x86-64 build), 3-4x slower here at n >= 500
-// (bench/gp). Each call runs on the calling thread; calls from several threads
-// are serialised (see dense_linear_algebra.cc).
+// (bench/gp). Each call runs on the calling thread, under blas::BlasLock (calls
+// from several threads overlap only on a thread-safe BLAS).
 //
 // Matrices may be blocks of larger ones (the leading dimension is the outer
 // stride), column-major, as Eigen stores them.
@@ -33,10 +31,6 @@ void SolveLower(const Eigen::Ref<const Eigen::MatrixXd>& l,
                 Eigen::Ref<Eigen::MatrixXd> b);
 void SolveLowerTransposed(const Eigen::Ref<const Eigen::MatrixXd>& l,
                           Eigen::Ref<Eigen::MatrixXd> b);
-
-// OK unless the BLAS loaded is a threaded OpenBLAS, which excite does not run on
-// (FAILED_PRECONDITION saying why and what to install). Servers call it at start.
-absl::Status CheckBlasRunsOnTheCallingThread();
 
 }  // namespace excite::gp
 

@@ -7,10 +7,13 @@
 
 namespace excite::plan {
 
-// The one process-wide lock held across every IpoptApplication's create,
-// Initialize, OptimizeTNLP and destroy: MUMPS in Ipopt 3.11 is not thread-safe.
-// SolveTnlp() takes it (through TimedIpoptLock); code that drives Ipopt itself
-// must take it too.
+// The one process-wide lock around Ipopt: MUMPS in Ipopt 3.11 is not
+// thread-safe. When the BLAS is not thread-safe either (blas/blas_lock.h) it is
+// blas::BlasMutex(), since MUMPS calls the BLAS. SolveTnlp() holds it (through
+// TimedIpoptLock) across an IpoptApplication's create, Initialize, OptimizeTNLP
+// and destroy, except while the NLP's callbacks evaluate the model
+// (IpoptCallbackUnlock): that work, about half of a plan, runs in parallel
+// across plans. Code that drives Ipopt itself must take it too.
 std::mutex& IpoptMutex();
 
 // Holds IpoptMutex() for its lifetime and adds the wait for it and the hold to
@@ -24,6 +27,22 @@ class TimedIpoptLock {
 
  private:
   std::chrono::steady_clock::time_point taken_;
+};
+
+// In an Ipopt callback: releases IpoptMutex() for its lifetime if this thread
+// holds it through a TimedIpoptLock, and takes it back after (the wait counts as
+// a wait, the time released not as held). A no-op on a thread that does not hold
+// it (a callback called directly, as tests do).
+class IpoptCallbackUnlock {
+ public:
+  IpoptCallbackUnlock();
+  ~IpoptCallbackUnlock();
+  IpoptCallbackUnlock(const IpoptCallbackUnlock&) = delete;
+  IpoptCallbackUnlock& operator=(const IpoptCallbackUnlock&) = delete;
+
+ private:
+  bool released_ = false;
+  std::chrono::steady_clock::time_point released_at_;
 };
 
 // What TimedIpoptLocks spent on IpoptMutex() since the process started: how often

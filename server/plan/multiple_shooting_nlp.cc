@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "server/plan/entropy_objective.h"
+#include "server/plan/ipopt_lock.h"
 
 namespace excite::plan {
 namespace {
@@ -163,6 +164,8 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
   cache_valid_ = true;
   cache_finite_ = false;
   ++evaluations_;
+  // The model's work runs outside Ipopt's lock, in parallel with other plans.
+  const IpoptCallbackUnlock unlocked;
 
   const int zd = dx_ + du_;
   z_.resize(horizon_, zd);

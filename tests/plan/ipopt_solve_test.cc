@@ -14,7 +14,7 @@ namespace excite::plan {
 namespace {
 
 // min (x - 3)^2 over x in [-10, 10], from x = 0.
-class Parabola final : public Ipopt::TNLP {
+class Parabola : public Ipopt::TNLP {
  public:
   bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac_g,
                     Ipopt::Index& nnz_h_lag, IndexStyleEnum& index_style) override {
@@ -84,6 +84,37 @@ TEST(IpoptSolveTest, SolvesAndCountsTheTimeItHeldTheLock) {
   EXPECT_GT(held, 0);
   // Both lie inside the call, one after the other.
   EXPECT_LE(held + waited, wall);
+}
+
+// A parabola whose objective callback, like the planner's, gives Ipopt's lock up
+// while it runs: another thread can take the lock then.
+class ParabolaWithOpenCallback : public Parabola {
+ public:
+  bool eval_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
+              Ipopt::Number& value) override {
+    const IpoptCallbackUnlock unlocked;
+    std::thread other([this] {
+      if (IpoptMutex().try_lock()) {
+        ++taken_by_another_thread;
+        IpoptMutex().unlock();
+      }
+    });
+    other.join();
+    return Parabola::eval_f(n, x, new_x, value);
+  }
+  int taken_by_another_thread = 0;
+};
+
+TEST(IpoptSolveTest, CallbacksRunOutsideTheLock) {
+  Ipopt::SmartPtr<ParabolaWithOpenCallback> nlp = new ParabolaWithOpenCallback();
+  const IpoptOutcome outcome = SolveTnlp(nlp, IpoptSettings());
+  EXPECT_EQ(outcome.status, Ipopt::Solve_Succeeded);
+  EXPECT_NEAR(nlp->solution, 3.0, 1e-6);
+  EXPECT_GT(nlp->taken_by_another_thread, 0);
+  // Outside a solve the unlock does nothing: this thread does not hold the lock.
+  { const IpoptCallbackUnlock nothing_held; }
+  ASSERT_TRUE(IpoptMutex().try_lock());
+  IpoptMutex().unlock();
 }
 
 TEST(IpoptSolveTest, CountsTheWaitWhileAnotherHoldsTheLock) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <thread>
 
 #include "server/gp/dynamics_model.h"
 #include "server/plan/entropy_objective.h"
@@ -33,6 +34,38 @@ TEST(PlannerGpTest, IpoptDerivativeCheckerOnTheGp) {
   const std::string log = DerivativeCheckerLog(nlp);
   EXPECT_NE(log.find("No errors detected by derivative checker"), std::string::npos)
       << log;
+}
+
+// Plans on two threads at once, whose model work runs outside Ipopt's lock and
+// interleaves with the other solve, are the plans each makes alone, to the bit.
+TEST(PlannerGpTest, ConcurrentPlansAreThePlansMadeAlone) {
+  const gp::DynamicsModel first = FittedModel(150);
+  const gp::DynamicsModel second = FittedModel(220);
+  PlanOptions o;
+  o.strategy = Strategy::kRec;
+  o.input_lower = Eigen::VectorXd::Constant(1, -3.0);
+  o.input_upper = Eigen::VectorXd::Constant(1, 3.0);
+  const auto plan = [&o](const gp::DynamicsModel& model, double angle) {
+    Planner planner(o);
+    Eigen::MatrixXd inputs;
+    for (int step = 0; step < 3; ++step) {  // warm-started replans
+      auto p = planner.PlanInputs(model, Eigen::Vector2d(angle, 0.1 * step), PlanLimits{},
+                                  nullptr);
+      EXPECT_TRUE(p.ok()) << p.status();
+      if (p.ok()) inputs = p->inputs;
+    }
+    return inputs;
+  };
+  const Eigen::MatrixXd alone_first = plan(first, 0.2);
+  const Eigen::MatrixXd alone_second = plan(second, -0.4);
+  for (int round = 0; round < 3; ++round) {
+    Eigen::MatrixXd together_first, together_second;
+    std::thread other([&] { together_second = plan(second, -0.4); });
+    together_first = plan(first, 0.2);
+    other.join();
+    EXPECT_EQ(together_first, alone_first);
+    EXPECT_EQ(together_second, alone_second);
+  }
 }
 
 TEST(PlannerGpTest, RecPlanBeatsRandomSequences) {

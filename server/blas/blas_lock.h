@@ -1,0 +1,42 @@
+#ifndef EXCITE_SERVER_BLAS_BLAS_LOCK_H_
+#define EXCITE_SERVER_BLAS_BLAS_LOCK_H_
+
+#include <mutex>
+
+#include "absl/status/status.h"
+
+namespace excite::blas {
+
+// Which BLAS the process loaded, and the one lock around it when it is not
+// thread-safe. Debian's serial OpenBLAS is built without USE_LOCKING: two threads
+// inside it at once share its buffer pool, and one gets wrong numbers (2 wrong
+// Cholesky factors in 6,000 from two threads on this machine; 0 with BLIS or the
+// reference BLAS). The GP's LAPACK calls and Ipopt (whose MUMPS calls the same
+// BLAS) both go through it: gp::dense_linear_algebra takes BlasLock, and
+// plan::IpoptMutex() is BlasMutex() when the BLAS needs serialising.
+
+// True when the BLAS loaded is an OpenBLAS (any build): its calls must not
+// overlap. Decided once per process.
+bool BlasNeedsSerialising();
+
+// The process's BLAS lock (whatever BlasNeedsSerialising() says).
+std::mutex& BlasMutex();
+
+// Holds BlasMutex() for its lifetime if BlasNeedsSerialising(); a no-op otherwise.
+class BlasLock {
+ public:
+  BlasLock();
+  BlasLock(const BlasLock&) = delete;
+  BlasLock& operator=(const BlasLock&) = delete;
+
+ private:
+  std::unique_lock<std::mutex> lock_;
+};
+
+// OK unless the BLAS loaded is a threaded OpenBLAS, which excite does not run on
+// (FAILED_PRECONDITION saying why and what to install). Servers call it at start.
+absl::Status CheckBlasRunsOnTheCallingThread();
+
+}  // namespace excite::blas
+
+#endif  // EXCITE_SERVER_BLAS_BLAS_LOCK_H_
