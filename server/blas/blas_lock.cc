@@ -11,13 +11,13 @@ bool BlasNeedsSerialising() {
   return openblas;
 }
 
-std::mutex& BlasMutex() {
-  static std::mutex* const mutex = new std::mutex;
+std::recursive_mutex& BlasMutex() {
+  static std::recursive_mutex* const mutex = new std::recursive_mutex;
   return *mutex;
 }
 
 BlasLock::BlasLock() {
-  if (BlasNeedsSerialising()) lock_ = std::unique_lock<std::mutex>(BlasMutex());
+  if (BlasNeedsSerialising()) lock_ = std::unique_lock<std::recursive_mutex>(BlasMutex());
 }
 
 absl::Status CheckBlasRunsOnTheCallingThread() {

@@ -19,8 +19,10 @@ namespace excite::blas {
 // overlap. Decided once per process.
 bool BlasNeedsSerialising();
 
-// The process's BLAS lock (whatever BlasNeedsSerialising() says).
-std::mutex& BlasMutex();
+// The process's BLAS lock (whatever BlasNeedsSerialising() says). Recursive: a
+// thread that holds it through Ipopt's lock and calls the GP (a callback that
+// does not release it) takes it again instead of deadlocking.
+std::recursive_mutex& BlasMutex();
 
 // Holds BlasMutex() for its lifetime if BlasNeedsSerialising(); a no-op otherwise.
 class BlasLock {
@@ -30,7 +32,7 @@ class BlasLock {
   BlasLock& operator=(const BlasLock&) = delete;
 
  private:
-  std::unique_lock<std::mutex> lock_;
+  std::unique_lock<std::recursive_mutex> lock_;
 };
 
 // OK unless the BLAS loaded is a threaded OpenBLAS, which excite does not run on

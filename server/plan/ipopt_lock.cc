@@ -24,8 +24,8 @@ int64_t NanosecondsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-std::mutex& IpoptMutex() {
-  static std::mutex* const own = new std::mutex;
+std::recursive_mutex& IpoptMutex() {
+  static std::recursive_mutex* const own = new std::recursive_mutex;
   return blas::BlasNeedsSerialising() ? blas::BlasMutex() : *own;
 }
 

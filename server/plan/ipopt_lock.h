@@ -14,7 +14,7 @@ namespace excite::plan {
 // and destroy, except while the NLP's callbacks evaluate the model
 // (IpoptCallbackUnlock): that work, about half of a plan, runs in parallel
 // across plans. Code that drives Ipopt itself must take it too.
-std::mutex& IpoptMutex();
+std::recursive_mutex& IpoptMutex();
 
 // Holds IpoptMutex() for its lifetime and adds the wait for it and the hold to
 // the process's IpoptLockTotals.

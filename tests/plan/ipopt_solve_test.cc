@@ -119,7 +119,7 @@ TEST(IpoptSolveTest, CallbacksRunOutsideTheLock) {
 
 TEST(IpoptSolveTest, CountsTheWaitWhileAnotherHoldsTheLock) {
   const IpoptLockTotals before = ReadIpoptLockTotals();
-  std::unique_lock<std::mutex> other(IpoptMutex());
+  std::unique_lock<std::recursive_mutex> other(IpoptMutex());
   Ipopt::SmartPtr<Parabola> nlp = new Parabola();
   IpoptOutcome outcome;
   std::thread solver([&] { outcome = SolveTnlp(nlp, IpoptSettings()); });
