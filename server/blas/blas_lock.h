@@ -11,17 +11,17 @@ namespace excite::blas {
 // thread-safe. Debian's serial OpenBLAS is built without USE_LOCKING: two threads
 // inside it at once share its buffer pool, and one gets wrong numbers (2 wrong
 // Cholesky factors in 6,000 from two threads on this machine; 0 with BLIS or the
-// reference BLAS). The GP's LAPACK calls and Ipopt (whose MUMPS calls the same
-// BLAS) both go through it: gp::dense_linear_algebra takes BlasLock, and
-// plan::IpoptMutex() is BlasMutex() when the BLAS needs serialising.
+// reference BLAS). The GP's LAPACK calls take BlasLock; an Ipopt solve, whose
+// MUMPS calls the same BLAS, holds BlasMutex() outside its model callbacks
+// (plan/ipopt_lock.h).
 
 // True when the BLAS loaded is an OpenBLAS (any build): its calls must not
 // overlap. Decided once per process.
 bool BlasNeedsSerialising();
 
 // The process's BLAS lock (whatever BlasNeedsSerialising() says). Recursive: a
-// thread that holds it through Ipopt's lock and calls the GP (a callback that
-// does not release it) takes it again instead of deadlocking.
+// thread that holds it through an Ipopt solve and calls the GP (from a callback
+// that does not release it) takes it again instead of deadlocking.
 std::recursive_mutex& BlasMutex();
 
 // Holds BlasMutex() for its lifetime if BlasNeedsSerialising(); a no-op otherwise.

@@ -11,10 +11,8 @@ std::atomic<int64_t> acquisitions{0};
 std::atomic<int64_t> wait_ns{0};
 std::atomic<int64_t> held_ns{0};
 
-// Whether this thread holds IpoptMutex() through a TimedIpoptLock now, and for how
-// long that hold has released it to callbacks.
-thread_local bool holds_lock = false;
-thread_local int64_t released_ns_of_this_hold = 0;
+// Whether a TimedIpoptLock of this thread holds blas::BlasMutex() now.
+thread_local bool holds_blas = false;
 
 int64_t NanosecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -25,8 +23,8 @@ int64_t NanosecondsSince(std::chrono::steady_clock::time_point start) {
 }  // namespace
 
 std::recursive_mutex& IpoptMutex() {
-  static std::recursive_mutex* const own = new std::recursive_mutex;
-  return blas::BlasNeedsSerialising() ? blas::BlasMutex() : *own;
+  static std::recursive_mutex* const mutex = new std::recursive_mutex;
+  return *mutex;
 }
 
 TimedIpoptLock::TimedIpoptLock() {
@@ -35,32 +33,32 @@ TimedIpoptLock::TimedIpoptLock() {
   taken_ = std::chrono::steady_clock::now();
   wait_ns.fetch_add(NanosecondsSince(asked), std::memory_order_relaxed);
   acquisitions.fetch_add(1, std::memory_order_relaxed);
-  holds_lock = true;
-  released_ns_of_this_hold = 0;
+  if (blas::BlasNeedsSerialising()) {
+    blas::BlasMutex().lock();
+    holds_blas = true;
+  }
 }
 
 TimedIpoptLock::~TimedIpoptLock() {
-  held_ns.fetch_add(NanosecondsSince(taken_) - released_ns_of_this_hold,
-                    std::memory_order_relaxed);
-  holds_lock = false;
+  if (holds_blas) {
+    holds_blas = false;
+    blas::BlasMutex().unlock();
+  }
+  held_ns.fetch_add(NanosecondsSince(taken_), std::memory_order_relaxed);
   IpoptMutex().unlock();
 }
 
 IpoptCallbackUnlock::IpoptCallbackUnlock() {
-  if (!holds_lock) return;
+  if (!holds_blas) return;
   released_ = true;
-  holds_lock = false;
-  released_at_ = std::chrono::steady_clock::now();
-  IpoptMutex().unlock();
+  holds_blas = false;
+  blas::BlasMutex().unlock();
 }
 
 IpoptCallbackUnlock::~IpoptCallbackUnlock() {
   if (!released_) return;
-  const auto asked = std::chrono::steady_clock::now();
-  IpoptMutex().lock();
-  wait_ns.fetch_add(NanosecondsSince(asked), std::memory_order_relaxed);
-  released_ns_of_this_hold += NanosecondsSince(released_at_);
-  holds_lock = true;
+  blas::BlasMutex().lock();
+  holds_blas = true;
 }
 
 IpoptLockTotals ReadIpoptLockTotals() {

@@ -8,16 +8,17 @@
 namespace excite::plan {
 
 // The one process-wide lock around Ipopt: MUMPS in Ipopt 3.11 is not
-// thread-safe. When the BLAS is not thread-safe either (blas/blas_lock.h) it is
-// blas::BlasMutex(), since MUMPS calls the BLAS. SolveTnlp() holds it (through
-// TimedIpoptLock) across an IpoptApplication's create, Initialize, OptimizeTNLP
-// and destroy, except while the NLP's callbacks evaluate the model
-// (IpoptCallbackUnlock): that work, about half of a plan, runs in parallel
-// across plans. Code that drives Ipopt itself must take it too.
+// thread-safe. SolveTnlp() holds it (through TimedIpoptLock) across an
+// IpoptApplication's create, Initialize, OptimizeTNLP and destroy, so one solve
+// runs at a time. Code that drives Ipopt itself must take it too.
 std::recursive_mutex& IpoptMutex();
 
 // Holds IpoptMutex() for its lifetime and adds the wait for it and the hold to
-// the process's IpoptLockTotals.
+// the process's IpoptLockTotals. When the BLAS is not thread-safe
+// (blas::BlasNeedsSerialising()) it holds blas::BlasMutex() too, since MUMPS
+// calls the BLAS, except during the NLP's callbacks (IpoptCallbackUnlock): a
+// Predict or a refit of another session then waits for one Ipopt iteration's
+// linear algebra at most, not for a whole solve.
 class TimedIpoptLock {
  public:
   TimedIpoptLock();
@@ -29,10 +30,10 @@ class TimedIpoptLock {
   std::chrono::steady_clock::time_point taken_;
 };
 
-// In an Ipopt callback: releases IpoptMutex() for its lifetime if this thread
-// holds it through a TimedIpoptLock, and takes it back after (the wait counts as
-// a wait, the time released not as held). A no-op on a thread that does not hold
-// it (a callback called directly, as tests do).
+// In an Ipopt callback: releases the BLAS lock a TimedIpoptLock of this thread
+// holds, for its lifetime (the model's own BLAS calls take it call by call). A
+// no-op when there is none (a thread-safe BLAS, or a callback called directly,
+// as tests do). IpoptMutex() stays held.
 class IpoptCallbackUnlock {
  public:
   IpoptCallbackUnlock();
@@ -42,7 +43,6 @@ class IpoptCallbackUnlock {
 
  private:
   bool released_ = false;
-  std::chrono::steady_clock::time_point released_at_;
 };
 
 // What TimedIpoptLocks spent on IpoptMutex() since the process started: how often

@@ -164,7 +164,7 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
   cache_valid_ = true;
   cache_finite_ = false;
   ++evaluations_;
-  // The model's work runs outside Ipopt's lock, in parallel with other plans.
+  // Other sessions' BLAS calls may run while the model works.
   const IpoptCallbackUnlock unlocked;
 
   const int zd = dx_ + du_;
