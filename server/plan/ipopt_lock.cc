@@ -22,8 +22,8 @@ int64_t NanosecondsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-std::recursive_mutex& IpoptMutex() {
-  static std::recursive_mutex* const mutex = new std::recursive_mutex;
+std::mutex& IpoptMutex() {
+  static std::mutex* const mutex = new std::mutex;
   return *mutex;
 }
 

@@ -11,7 +11,7 @@ namespace excite::plan {
 // thread-safe. SolveTnlp() holds it (through TimedIpoptLock) across an
 // IpoptApplication's create, Initialize, OptimizeTNLP and destroy, so one solve
 // runs at a time. Code that drives Ipopt itself must take it too.
-std::recursive_mutex& IpoptMutex();
+std::mutex& IpoptMutex();
 
 // Holds IpoptMutex() for its lifetime and adds the wait for it and the hold to
 // the process's IpoptLockTotals. When the BLAS is not thread-safe

@@ -122,7 +122,7 @@ TEST(IpoptSolveTest, CallbacksLetOtherThreadsUseTheBlas) {
 
 TEST(IpoptSolveTest, CountsTheWaitWhileAnotherHoldsTheLock) {
   const IpoptLockTotals before = ReadIpoptLockTotals();
-  std::unique_lock<std::recursive_mutex> other(IpoptMutex());
+  std::unique_lock<std::mutex> other(IpoptMutex());
   Ipopt::SmartPtr<Parabola> nlp = new Parabola();
   IpoptOutcome outcome;
   std::thread solver([&] { outcome = SolveTnlp(nlp, IpoptSettings()); });
