@@ -20,8 +20,9 @@ class DynamicsPredictor {
 
   // For m points z (m x z_dim, one per row): the predicted next state `mean`
   // (m x state_dim) and the latent variance of each output `variance`
-  // (m x state_dim), in the units of the data. If the Jacobian outputs are not
-  // null they are resized to m entries, each state_dim x z_dim:
+  // (m x state_dim), in the units of the data. Null outputs are not computed
+  // (for a GP the mean alone needs no triangular solve). If the Jacobian outputs
+  // are not null they are resized to m entries, each state_dim x z_dim:
   // (*mean_jacobians)[i](j, l) = d mean(i, j) / d z(i, l), same for variance.
   // Thread-safety: const calls may run concurrently.
   virtual void Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,

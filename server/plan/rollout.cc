@@ -19,6 +19,11 @@ Rollout RollOut(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
       hallucination->eta.cols() != dx) {
     return r;
   }
+  // The means chain from step to step, so they are one-point calls; they need no
+  // triangular solve (k^T alpha). The variances then come from one batched call
+  // (one BLAS-3 solve instead of M BLAS-2 ones), unless the hallucination needs
+  // each variance to find the next state.
+  const bool hallucinate = hallucination != nullptr && hallucination->eta.rows() > 0;
   Eigen::MatrixXd z(1, dx + du);
   Eigen::MatrixXd mean;
   Eigen::MatrixXd variance;
@@ -27,21 +32,29 @@ Rollout RollOut(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
     r.states.row(i) = x.transpose();
     z.row(0).head(dx) = x.transpose();
     z.row(0).tail(du) = inputs.row(i);
-    model.Predict(z, &mean, &variance, nullptr, nullptr);
-    if (mean.rows() != 1 || mean.cols() != dx || variance.rows() != 1 ||
-        variance.cols() != dx) {
+    model.Predict(z, &mean, hallucinate ? &variance : nullptr, nullptr, nullptr);
+    if (mean.rows() != 1 || mean.cols() != dx ||
+        (hallucinate && (variance.rows() != 1 || variance.cols() != dx))) {
       return r;
     }
-    r.variances.row(i) = variance.row(0);
     r.means.row(i) = mean.row(0);
     x = mean.row(0).transpose();
-    if (hallucination != nullptr && i < hallucination->eta.rows()) {
-      x += hallucination->beta * variance.row(0)
-                                     .transpose()
-                                     .cwiseMax(kVarianceFloor)
-                                     .cwiseSqrt()
-                                     .cwiseProduct(hallucination->eta.row(i).transpose());
+    if (hallucinate) {
+      r.variances.row(i) = variance.row(0);
+      if (i < hallucination->eta.rows()) {
+        x += hallucination->beta *
+             variance.row(0)
+                 .transpose()
+                 .cwiseMax(kVarianceFloor)
+                 .cwiseSqrt()
+                 .cwiseProduct(hallucination->eta.row(i).transpose());
+      }
     }
+  }
+  if (!hallucinate && horizon > 0) {
+    model.Predict(PointsOf(r), nullptr, &variance, nullptr, nullptr);
+    if (variance.rows() != horizon || variance.cols() != dx) return r;
+    r.variances = variance;
   }
   r.valid = r.states.allFinite() && r.means.allFinite() && r.variances.allFinite();
   return r;

@@ -25,9 +25,11 @@ struct Hallucination {
   Eigen::MatrixXd eta;
 };
 
-// M sequential one-point Predict calls (no Jacobians), through the mean, or
-// through the optimistic dynamics if `hallucination` is given (then `states`
-// is the hallucinated trajectory and `means` still the mean at each point).
+// Rolls the inputs out from x0, through the mean (M one-point mean-only Predict
+// calls, then one batched call for the variances), or through the optimistic
+// dynamics if `hallucination` is given (M one-point calls with variances; then
+// `states` is the hallucinated trajectory and `means` still the mean at each
+// point). No Jacobians.
 Rollout RollOut(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
                 const Eigen::MatrixXd& inputs,
                 const Hallucination* hallucination = nullptr);

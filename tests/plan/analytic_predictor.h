@@ -41,6 +41,10 @@ class AnalyticPendulum : public gp::DynamicsPredictor {
                std::vector<Eigen::MatrixXd>* variance_jacobians) const override {
     const int m = static_cast<int>(z.rows());
     const int zd = 2 + du_;
+    // Null outputs are not wanted (DynamicsPredictor); compute into locals.
+    Eigen::MatrixXd unwanted_mean, unwanted_variance;
+    if (mean == nullptr) mean = &unwanted_mean;
+    if (variance == nullptr) variance = &unwanted_variance;
     mean->resize(m, 2);
     variance->resize(m, 2);
     if (mean_jacobians != nullptr)
