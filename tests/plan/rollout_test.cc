@@ -35,13 +35,14 @@ TEST(RolloutTest, EqualsOnePointPredictionsStepByStep) {
   }
 }
 
-TEST(RolloutTest, EmptyAndMismatchedInputsAreInvalid) {
+TEST(RolloutTest, MismatchedShapesAreInvalidAndNoInputsRollOutNothing) {
   const gp::DynamicsModel model = FittedModel(30);
   EXPECT_FALSE(
       RollOut(model, Eigen::Vector3d(0, 0, 0), Eigen::MatrixXd::Zero(4, 1)).valid);
   EXPECT_FALSE(RollOut(model, Eigen::Vector2d(0, 0), Eigen::MatrixXd::Zero(4, 2)).valid);
   const Rollout empty = RollOut(model, Eigen::Vector2d(0, 0), Eigen::MatrixXd(0, 1));
   EXPECT_EQ(empty.states.rows(), 0);
+  EXPECT_EQ(empty.variances.rows(), 0);
 }
 
 }  // namespace
