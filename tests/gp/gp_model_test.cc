@@ -14,33 +14,11 @@
 namespace excite::gp {
 namespace {
 
+using testing::Data;
+using testing::MakeData;
+using testing::MakeHyperparameters;
 using testing::ReferenceGp;
 using testing::RelErr;
-
-struct Data {
-  Eigen::MatrixXd x;
-  Eigen::VectorXd y;
-};
-
-Data MakeData(int n, int d, uint64_t seed, double noise = 0.1) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::normal_distribution<double> e(0.0, noise);
-  Data data{Eigen::MatrixXd(n, d), Eigen::VectorXd(n)};
-  for (int i = 0; i < n; ++i) {
-    for (int l = 0; l < d; ++l) data.x(i, l) = u(rng);
-    data.y(i) = std::sin(2.0 * data.x(i, 0)) + 0.5 * data.x.row(i).squaredNorm() + e(rng);
-  }
-  return data;
-}
-
-Hyperparameters MakeHyperparameters(int d) {
-  Hyperparameters h;
-  h.signal_variance = 1.3;
-  h.lengthscales = Eigen::VectorXd::LinSpaced(d, 0.6, 1.4);
-  h.noise_variance = 0.05;
-  return h;
-}
 
 TEST(KernelTest, MatricesMatchScalarFormula) {
   const Data a = MakeData(7, 3, 1);

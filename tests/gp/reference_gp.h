@@ -4,6 +4,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <random>
 #include <utility>
 
 #include "server/gp/hyperparameters.h"
@@ -68,6 +70,32 @@ class ReferenceGp {
   double m0_;
   Eigen::FullPivLU<Eigen::MatrixXd> lu_;
 };
+
+struct Data {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+};
+
+// n points uniform in [-1, 1]^d, a smooth target plus N(0, noise^2).
+inline Data MakeData(int n, int d, uint64_t seed, double noise = 0.1) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::normal_distribution<double> e(0.0, noise);
+  Data data{Eigen::MatrixXd(n, d), Eigen::VectorXd(n)};
+  for (int i = 0; i < n; ++i) {
+    for (int l = 0; l < d; ++l) data.x(i, l) = u(rng);
+    data.y(i) = std::sin(2.0 * data.x(i, 0)) + 0.5 * data.x.row(i).squaredNorm() + e(rng);
+  }
+  return data;
+}
+
+inline Hyperparameters MakeHyperparameters(int d) {
+  Hyperparameters h;
+  h.signal_variance = 1.3;
+  h.lengthscales = Eigen::VectorXd::LinSpaced(d, 0.6, 1.4);
+  h.noise_variance = 0.05;
+  return h;
+}
 
 // Relative difference with an absolute floor.
 inline double RelErr(double a, double b, double floor = 1e-12) {
