@@ -19,6 +19,7 @@
 #include "server/gp/gp_model.h"
 #include "server/gp/hyperparameter_fit.h"
 #include "server/gp/hyperparameters.h"
+#include "server/gp/sparse_gp_model.h"
 
 namespace excite::gp {
 namespace {
@@ -81,7 +82,12 @@ struct DynamicsModel::State {
   // Output scale of the fit's normalised units (refreshed at every Refit()); the
   // model in data units does not depend on it.
   Eigen::VectorXd out_std;
+  // Per output: exact GPs, or (sparse) sparse GPs with the LML of the exact GP
+  // on the fit's subset.
+  bool sparse = false;
   std::vector<GpModel> gps;
+  std::vector<SparseGpModel> sparse_gps;
+  std::vector<double> sparse_fit_lml;
   std::vector<Hyperparameters> data_hyperparameters;
 
   int n() const { return static_cast<int>(z.rows()); }
@@ -137,6 +143,13 @@ absl::StatusOr<DynamicsModel> DynamicsModel::Create(DynamicsModelOptions options
     }
   }
   if (options.fit_threads < 1) options.fit_threads = 1;
+  if (options.sparse_above < 0 || options.sparse.max_inducing < 1 ||
+      !(options.sparse.inducing_tolerance > 0.0) ||
+      !std::isfinite(options.sparse.inducing_tolerance)) {
+    return absl::InvalidArgumentError(
+        "sparse_above must be >= 0, sparse.max_inducing >= 1 and "
+        "sparse.inducing_tolerance finite and > 0");
+  }
   auto state = std::make_unique<State>();
   state->state_dim = options.state_dim;
   state->input_dim = options.input_dim;
@@ -158,9 +171,19 @@ int DynamicsModel::input_dim() const { return state_->input_dim; }
 int DynamicsModel::sample_count() const { return state_->n(); }
 
 int64_t DynamicsModel::PeakBytes(int64_t samples, int state_dim, int input_dim,
-                                 int fit_threads) {
+                                 int fit_threads, int sparse_above, int max_inducing) {
   const int64_t n = std::max<int64_t>(samples, 0);
   const int64_t z_dim = int64_t{state_dim} + input_dim;
+  if (sparse_above > 0 && n > sparse_above) {
+    // Per output: the sparse model (its factors, inputs and scaled inputs,
+    // targets) and the exact GP of the subset while it is fitted.
+    const int64_t per_output =
+        SparseGpModel::FactorBytes(max_inducing, static_cast<int>(z_dim)) +
+        static_cast<int64_t>(sizeof(double)) * n * (2 * z_dim + 1);
+    const int64_t fit = PeakBytes(sparse_above, state_dim, input_dim, fit_threads);
+    return state_dim * per_output +
+           static_cast<int64_t>(sizeof(double)) * n * (z_dim + state_dim) + fit;
+  }
   const int64_t capacity = std::max<int64_t>(16, n + n / 4 + 8);  // GpModel's room
   // Per output: Cholesky factor, cached K, inputs and scaled inputs, three vectors.
   const int64_t per_output = capacity * capacity + n * n + 2 * n * z_dim + 3 * n;
@@ -248,8 +271,26 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
   s.samples_since_fit += static_cast<int>(m);
   // Recomputed from all targets (not updated incrementally), so a model rebuilt
   // from the same data has bit-identical prior means.
+  const Eigen::VectorXd old_prior_mean = s.prior_mean;
   s.prior_mean = s.targets.colwise().mean().transpose();
   if (!s.fitted) return absl::OkStatus();
+  if (s.sparse) {
+    // Added on the old prior mean, then every target shifted to the new one.
+    const Eigen::MatrixXd zn = s.Normalise(z);
+    for (int j = 0; j < s.state_dim; ++j) {
+      absl::Status st;
+      for (Eigen::Index i = 0; i < m && st.ok(); ++i) {
+        st = s.sparse_gps[j].AddSample(zn.row(i).transpose(),
+                                       (t(i, j) - old_prior_mean(j)) / s.out_std(j));
+      }
+      if (!st.ok()) {
+        s.fitted = false;  // Refit() rebuilds from the stored data.
+        return st;
+      }
+      s.sparse_gps[j].ShiftTargets((s.prior_mean(j) - old_prior_mean(j)) / s.out_std(j));
+    }
+    return absl::OkStatus();
+  }
   // O(n^2) row appends with the current normalisation and hyperparameters, then
   // every target re-centred on the new prior mean (two O(n^2) solves).
   const Eigen::MatrixXd zn = s.Normalise(z);
@@ -313,22 +354,38 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
           .transpose()
           .cwiseMax(std::sqrt(s.options.measurement_noise_variance));
   const Eigen::MatrixXd zn = s.Normalise(s.z);
+  // Long sessions: hyperparameters from a strided subset, then sparse models on
+  // all the data.
+  const bool sparse = s.options.sparse_above > 0 && n > s.options.sparse_above;
+  std::vector<Eigen::Index> subset;
+  if (sparse) {
+    const int count = s.options.sparse_above;
+    for (int i = 0; i < count; ++i) {
+      subset.push_back(static_cast<Eigen::Index>(int64_t{i} * n / count));
+    }
+  }
+  const Eigen::MatrixXd zn_fit = sparse ? Eigen::MatrixXd(zn(subset, Eigen::all)) : zn;
 
   const int outputs = s.state_dim;
   const bool have_warm = !s.data_hyperparameters.empty();
   const bool default_start =
       !have_warm || n >= s.options.fit.default_start_growth * s.default_start_n;
   std::vector<GpModel> gps(outputs);
+  std::vector<SparseGpModel> sparse_gps(sparse ? outputs : 0,
+                                        SparseGpModel(s.options.sparse));
+  std::vector<double> sparse_fit_lml(sparse ? outputs : 0);
   std::vector<absl::StatusOr<FitSummary>> results(outputs, FitSummary{});
   auto fit_output = [&](int j) {
     const ScopedFlushDenormals thread_flush;  // the fit's worker threads too
     const double var = out_std(j) * out_std(j);
-    Eigen::VectorXd y = s.StandardisedTargets(j, out_std(j));
+    Eigen::VectorXd y_all = s.StandardisedTargets(j, out_std(j));
+    Eigen::VectorXd y = sparse ? Eigen::VectorXd(y_all(subset)) : y_all;
     if (!fit) {
       const Hyperparameters h = ToNormalised(
           s.options.fit_kernel ? s.data_hyperparameters[j] : s.options.fixed[j],
           s.half_width, out_std(j));
-      absl::Status st = gps[j].Reset(zn, std::move(y), h);
+      absl::Status st = sparse ? sparse_gps[j].Reset(zn, std::move(y_all), h)
+                               : gps[j].Reset(zn, std::move(y), h);
       results[j] = st.ok() ? absl::StatusOr<FitSummary>(FitSummary{}) : st;
       return;
     }
@@ -347,7 +404,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
       initial.noise_variance = std::max(noise, 1e-2);
       if (!s.options.fit_noise) initial.noise_variance = noise;
     }
-    if (absl::Status st = gps[j].Reset(zn, std::move(y), initial); !st.ok()) {
+    if (absl::Status st = gps[j].Reset(zn_fit, std::move(y), initial); !st.ok()) {
       results[j] = st;
       return;
     }
@@ -357,6 +414,13 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
         s.options.fit.seed ^ SplitMix64(static_cast<uint64_t>(s.refits) * 1024u + j));
     results[j] =
         FitHyperparameters(fit_options, noise, s.options.fit_noise, warm, &gps[j], stop);
+    if (!sparse || !results[j].ok()) return;
+    sparse_fit_lml[j] = gps[j].log_marginal_likelihood();
+    if (absl::Status st =
+            sparse_gps[j].Reset(zn, std::move(y_all), gps[j].hyperparameters());
+        !st.ok()) {
+      results[j] = st;
+    }
   };
   const int threads = (outputs >= 2 && n >= kMinSamplesForThreads)
                           ? std::min(s.options.fit_threads, outputs)
@@ -384,13 +448,21 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
     summary.evaluations += r->evaluations;
     summary.stopped = summary.stopped || r->stopped;
   }
-  s.gps = std::move(gps);
+  s.sparse = sparse;
   s.out_std = out_std;
   s.data_hyperparameters.clear();
   for (int j = 0; j < outputs; ++j) {
-    s.data_hyperparameters.push_back(
-        ToData(s.gps[j].hyperparameters(), s.half_width, out_std(j)));
+    const Hyperparameters& h =
+        sparse ? sparse_gps[j].hyperparameters() : gps[j].hyperparameters();
+    s.data_hyperparameters.push_back(ToData(h, s.half_width, out_std(j)));
+    if (sparse) {
+      sparse_fit_lml[j] -= static_cast<double>(subset.size()) * std::log(out_std(j));
+    }
   }
+  // The subset's exact GPs are not kept: the sparse models replace them.
+  s.gps = sparse ? std::vector<GpModel>() : std::move(gps);
+  s.sparse_gps = std::move(sparse_gps);
+  s.sparse_fit_lml = std::move(sparse_fit_lml);
   s.fitted = true;
   // A stopped fit keeps samples_since_fit so that the next Refit() is still due
   // and continues from the best point seen.
@@ -469,10 +541,15 @@ void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
   Eigen::MatrixXd dmu, dvar;
   for (int j = 0; j < sd; ++j) {
     const double sj = s.out_std(j);
-    s.gps[j].Predict(zn, mean != nullptr ? &mu : nullptr,
-                     variance != nullptr ? &var : nullptr,
-                     mean_jacobians != nullptr ? &dmu : nullptr,
-                     variance_jacobians != nullptr ? &dvar : nullptr);
+    Eigen::VectorXd* mu_out = mean != nullptr ? &mu : nullptr;
+    Eigen::VectorXd* var_out = variance != nullptr ? &var : nullptr;
+    Eigen::MatrixXd* dmu_out = mean_jacobians != nullptr ? &dmu : nullptr;
+    Eigen::MatrixXd* dvar_out = variance_jacobians != nullptr ? &dvar : nullptr;
+    if (s.sparse) {
+      s.sparse_gps[j].Predict(zn, mu_out, var_out, dmu_out, dvar_out);
+    } else {
+      s.gps[j].Predict(zn, mu_out, var_out, dmu_out, dvar_out);
+    }
     if (mean != nullptr) {
       mean->col(j) = (s.prior_mean(j) + sj * mu.array()).matrix();
       if (delta) mean->col(j) += z.col(j);
@@ -507,7 +584,7 @@ const GpPreparedPoints& AsGp(const DynamicsPredictor::PreparedPoints& p) {
 std::unique_ptr<DynamicsPredictor::PreparedPoints> DynamicsModel::PreparePoints(
     const Eigen::MatrixXd& z) const {
   const State& s = *state_;
-  if (!s.fitted || z.cols() != s.z_dim) return nullptr;
+  if (!s.fitted || s.sparse || z.cols() != s.z_dim) return nullptr;
   auto prepared = std::make_unique<GpPreparedPoints>();
   prepared->normalised = s.Normalise(z);
   for (const GpModel& gp : s.gps) {
@@ -588,11 +665,21 @@ std::vector<double> DynamicsModel::log_marginal_likelihoods() const {
   const State& s = *state_;
   std::vector<double> out;
   if (!s.fitted) return out;
+  if (s.sparse) return s.sparse_fit_lml;
   for (int j = 0; j < s.state_dim; ++j) {
     out.push_back(s.gps[j].log_marginal_likelihood() -
                   s.gps[j].size() * std::log(s.out_std(j)));
   }
   return out;
+}
+
+bool DynamicsModel::sparse() const { return state_->sparse; }
+
+std::vector<int> DynamicsModel::inducing_counts() const {
+  std::vector<int> counts;
+  for (const SparseGpModel& gp : state_->sparse_gps)
+    counts.push_back(gp.inducing_count());
+  return counts;
 }
 
 }  // namespace excite::gp

@@ -11,6 +11,7 @@
 #include "server/gp/dynamics_predictor.h"
 #include "server/gp/hyperparameter_fit.h"
 #include "server/gp/hyperparameters.h"
+#include "server/gp/sparse_gp_model.h"
 
 namespace excite::gp {
 
@@ -50,17 +51,24 @@ struct DynamicsModelOptions {
   // varies in the first samples gets a tiny half-width for good.)
   Eigen::VectorXd input_center;
   Eigen::VectorXd input_half_width;
+  // Long sessions: when a Refit() or Rebuild() finds more than this many samples,
+  // each output becomes a sparse GP (SparseGpModel, inducing points from all the
+  // data) whose hyperparameters are fitted by ML-II on a strided subset of
+  // `sparse_above` samples, so neither time nor memory per step grows as n^2.
+  // 0: always exact.
+  int sparse_above = 0;
+  SparseGpOptions sparse;
 };
 
-// One independent exact GP (squared-exponential ARD kernel) per state dimension on
-// inputs z = (x, u). Each output's prior mean is the mean of all its targets so far
-// (prior_means()), refreshed at every AddSamples(): the model is a function of the
-// data and the hyperparameters only, whenever Refit() ran, so a model rebuilt from
-// the same data and hyperparameters (after a restart or an import) predicts the
-// same. For the fit, inputs are normalised with the fixed centre/half-width and
-// each output is divided by its targets' standard deviation at that Refit(); the
-// model in data units does not depend on either. Not thread-safe for mutation;
-// const methods may run concurrently.
+// One independent GP (squared-exponential ARD kernel) per state dimension on
+// inputs z = (x, u): exact, or sparse above options.sparse_above samples. Each output's
+// prior mean is the mean of all its targets so far (prior_means()), refreshed at every
+// AddSamples(): the model is a function of the data and the hyperparameters only,
+// whenever Refit() ran, so a model rebuilt from the same data and hyperparameters (after
+// a restart or an import) predicts the same. For the fit, inputs are normalised with the
+// fixed centre/half-width and each output is divided by its targets' standard deviation
+// at that Refit(); the model in data units does not depend on either. Not thread-safe for
+// mutation; const methods may run concurrently.
 class DynamicsModel final : public DynamicsPredictor {
  public:
   static absl::StatusOr<DynamicsModel> Create(DynamicsModelOptions options);
@@ -71,7 +79,8 @@ class DynamicsModel final : public DynamicsPredictor {
   // Appends transitions (rows of the three matrices) and refreshes the prior
   // means. Before the first Refit() the data is only kept; after it each sample
   // costs O(n^2) per output (Cholesky row append), plus two O(n^2) solves per
-  // output for the new prior mean; hyperparameters unchanged. INVALID_ARGUMENT
+  // output for the new prior mean (sparse: O(M^2), see SparseGpModel);
+  // hyperparameters and the exact/sparse choice unchanged. INVALID_ARGUMENT
   // when CheckSamples() fails (nothing is added then).
   absl::Status AddSamples(const Eigen::MatrixXd& states, const Eigen::MatrixXd& inputs,
                           const Eigen::MatrixXd& next_states);
@@ -127,8 +136,10 @@ class DynamicsModel final : public DynamicsPredictor {
   // data) plus what a Refit() allocates while it runs on `fit_threads` threads
   // (four n x n matrices per output being fitted). For memory budgets; compared
   // with a real server's peak resident memory in bench/load/session_memory.py.
-  static int64_t PeakBytes(int64_t samples, int state_dim, int input_dim,
-                           int fit_threads);
+  // With sparse_above > 0 and more samples than that: the sparse models at
+  // `max_inducing` points, the data, and the fit of the subset.
+  static int64_t PeakBytes(int64_t samples, int state_dim, int input_dim, int fit_threads,
+                           int sparse_above = 0, int max_inducing = 0);
 
   // See DynamicsPredictor. Requires fitted() and z.cols() == z_dim() (a
   // precondition, not checked by status: if violated, outputs are resized and
@@ -138,7 +149,8 @@ class DynamicsModel final : public DynamicsPredictor {
                std::vector<Eigen::MatrixXd>* mean_jacobians,
                std::vector<Eigen::MatrixXd>* variance_jacobians) const override;
 
-  // Joint posterior covariances (see DynamicsPredictor). Require fitted(); a set
+  // Joint posterior covariances (see DynamicsPredictor); not offered by the
+  // sparse models (PreparePoints returns null). Require fitted(); a set
   // prepared before a model change must not be used after it. PreparePoints costs
   // O(m n^2) per output, PosteriorCovariance O(m_a m_b n), the gradient
   // O(m_a n^2 + m_a m_b n) per output.
@@ -160,8 +172,13 @@ class DynamicsModel final : public DynamicsPredictor {
   std::vector<Hyperparameters> hyperparameters() const;
   // Per output: log p(targets | inputs, hyperparameters) in data units, with the
   // prior mean prior_means() (the normalised LML minus n log(output scale));
-  // empty before the first Refit().
+  // for a sparse model, that of the exact GP on the fit's subset at the last
+  // Refit(). Empty before the first Refit().
   std::vector<double> log_marginal_likelihoods() const;
+  // True when the outputs are sparse GPs (since the last Refit() or Rebuild()).
+  bool sparse() const;
+  // Inducing points of each output (empty unless sparse()).
+  std::vector<int> inducing_counts() const;
 
   DynamicsModel(DynamicsModel&&) noexcept;
   DynamicsModel& operator=(DynamicsModel&&) noexcept;

@@ -45,9 +45,9 @@ SparseGpModel::SparseGpModel(SparseGpOptions options) : options_(options) {}
 absl::Status SparseGpModel::Reset(Eigen::MatrixXd x, Eigen::VectorXd y,
                                   const Hyperparameters& hyperparameters) {
   if (options_.max_inducing < 1 || !(options_.inducing_tolerance > 0.0) ||
-      !(options_.inducing_tolerance < 1.0)) {
+      !std::isfinite(options_.inducing_tolerance)) {
     return absl::InvalidArgumentError(
-        "sparse GP: max_inducing must be >= 1 and inducing_tolerance in (0, 1)");
+        "sparse GP: max_inducing must be >= 1 and inducing_tolerance finite and > 0");
   }
   if (x.rows() != y.size()) {
     return absl::InvalidArgumentError(
@@ -83,11 +83,12 @@ absl::Status SparseGpModel::Reset(Eigen::MatrixXd x, Eigen::VectorXd y,
   // Z first, from L alone: sample i is tested against the points chosen before
   // it, exactly as AddSample() would.
   const double sf2 = h.signal_variance;
+  const double threshold = options_.inducing_tolerance * h.noise_variance;
   for (Eigen::Index i = 0; i < n && m_ < capacity; ++i) {
     Eigen::VectorXd l = CrossCovariance(z_scaled_.topRows(m_), x_scaled_.row(i), sf2);
     l_.topLeftCorner(m_, m_).triangularView<Eigen::Lower>().solveInPlace(l);
     const double d2 = sf2 - l.squaredNorm();
-    if (!(d2 > options_.inducing_tolerance * sf2)) continue;
+    if (!(d2 > threshold)) continue;
     l_.row(m_).head(m_) = l.transpose();
     l_(m_, m_) = std::sqrt(d2);
     z_scaled_.row(m_) = x_scaled_.row(i);
@@ -155,7 +156,7 @@ void SparseGpModel::MaybeAddInducing(int index) {
   Eigen::VectorXd l = CrossCovariance(z, s, sf2);
   l_old.solveInPlace(l);
   const double d2 = sf2 - l.squaredNorm();
-  if (!(d2 > options_.inducing_tolerance * sf2)) return;
+  if (!(d2 > options_.inducing_tolerance * hyperparameters_.noise_variance)) return;
   const double d = std::sqrt(d2);
   // The new row of A over the samples before `index`:
   // a = (K(s, X) - l^T L^-1 K(Z, X)) / (sigma_n d), and A_old a^T for B's new

@@ -14,8 +14,10 @@ struct SparseGpOptions {
   int max_inducing = 256;
   // A sample becomes an inducing point when the part of its prior variance that
   // the inducing points do not explain, k(x, x) - Q(x, x), exceeds this fraction
-  // of the signal variance (and there is room).
-  double inducing_tolerance = 1e-3;
+  // of the noise variance (and there is room). Relative to the noise because the
+  // approximation's error is: the variational bound's gap is
+  // sum_i (k(x_i, x_i) - Q(x_i, x_i)) / (2 noise variance).
+  double inducing_tolerance = 0.1;
 };
 
 // A sparse GP with inducing points: the deterministic training conditional (DTC;

@@ -268,6 +268,99 @@ TEST(DynamicsModelTest, RebuildFromSavedFitPredictsAsTheOriginal) {
   }
 }
 
+// Sparse above sparse_above samples. With every sample an inducing point the
+// sparse model is the exact one: same predictions and Jacobians in data units,
+// also after samples appended past the Refit() move the prior mean.
+TEST(DynamicsModelTest, SparseWithEverySampleInducingEqualsExact) {
+  for (Target target : {Target::kDelta, Target::kNext}) {
+    DynamicsModelOptions o = BaseOptions(target);
+    o.fit_kernel = false;
+    o.fixed = DataUnitHyperparameters();
+    for (Hyperparameters& h : o.fixed) h.lengthscales *= 0.1;  // no sample redundant
+    DynamicsModelOptions sparse_options = o;
+    sparse_options.sparse_above = 20;
+    sparse_options.sparse.max_inducing = 64;
+    sparse_options.sparse.inducing_tolerance = 1e-10;
+    absl::StatusOr<DynamicsModel> exact = DynamicsModel::Create(o);
+    absl::StatusOr<DynamicsModel> sparse = DynamicsModel::Create(sparse_options);
+    ASSERT_TRUE(exact.ok() && sparse.ok());
+    const Transitions d = MakeTransitions(40, 21);
+    for (DynamicsModel* m : {&*exact, &*sparse}) {
+      ASSERT_TRUE(
+          m->AddSamples(d.x.topRows(30), d.u.topRows(30), d.next.topRows(30)).ok());
+      ASSERT_TRUE(m->Refit().ok());
+      ASSERT_TRUE(
+          m->AddSamples(d.x.bottomRows(10), d.u.bottomRows(10), d.next.bottomRows(10))
+              .ok());
+    }
+    EXPECT_FALSE(exact->sparse());
+    ASSERT_TRUE(sparse->sparse());
+    EXPECT_EQ(sparse->inducing_counts(), std::vector<int>({40, 40}));
+    EXPECT_EQ(sparse->PreparePoints(Z(d)), nullptr);  // no joint covariances
+    const Eigen::MatrixXd zt = Z(MakeTransitions(6, 22));
+    Eigen::MatrixXd m1, v1, m2, v2;
+    std::vector<Eigen::MatrixXd> dm1, dv1, dm2, dv2;
+    exact->Predict(zt, &m1, &v1, &dm1, &dv1);
+    sparse->Predict(zt, &m2, &v2, &dm2, &dv2);
+    EXPECT_LT((m1 - m2).cwiseAbs().maxCoeff(), 1e-8);
+    EXPECT_LT((v1 - v2).cwiseAbs().maxCoeff(), 1e-8);
+    for (int i = 0; i < 6; ++i) {
+      EXPECT_LT((dm1[i] - dm2[i]).cwiseAbs().maxCoeff(), 1e-7);
+      EXPECT_LT((dv1[i] - dv2[i]).cwiseAbs().maxCoeff(), 1e-7);
+    }
+  }
+}
+
+// Fitted: hyperparameters from a subset, sparse models on all samples; close to
+// the exact model on the pendulum, and a restart (seed + rebuild) predicts the
+// same.
+TEST(DynamicsModelTest, SparseFitIsCloseToExactAndRebuildsTheSame) {
+  DynamicsModelOptions o = BaseOptions(Target::kDelta);
+  o.fit.seed = 3;
+  DynamicsModelOptions sparse_options = o;
+  sparse_options.sparse_above = 150;
+  absl::StatusOr<DynamicsModel> exact = DynamicsModel::Create(o);
+  absl::StatusOr<DynamicsModel> sparse = DynamicsModel::Create(sparse_options);
+  ASSERT_TRUE(exact.ok() && sparse.ok());
+  const Transitions d = MakeTransitions(420, 23);
+  for (DynamicsModel* m : {&*exact, &*sparse}) {
+    ASSERT_TRUE(
+        m->AddSamples(d.x.topRows(400), d.u.topRows(400), d.next.topRows(400)).ok());
+    ASSERT_TRUE(m->Refit().ok());
+    ASSERT_TRUE(
+        m->AddSamples(d.x.bottomRows(20), d.u.bottomRows(20), d.next.bottomRows(20))
+            .ok());
+  }
+  ASSERT_TRUE(sparse->sparse());
+  // The angle's delta is nearly linear (long lengthscales): few points cover it.
+  for (int count : sparse->inducing_counts()) {
+    EXPECT_GE(count, 3);
+    EXPECT_LT(count, 300);  // of 420
+  }
+  ASSERT_EQ(sparse->log_marginal_likelihoods().size(), 2u);
+  const Transitions test = MakeTransitions(200, 24, 0.0);
+  Eigen::MatrixXd m1, v1, m2, v2;
+  exact->Predict(Z(test), &m1, &v1, nullptr, nullptr);
+  sparse->Predict(Z(test), &m2, &v2, nullptr, nullptr);
+  const double exact_rmse = std::sqrt((m1 - test.next).squaredNorm() / 200);
+  const double sparse_rmse = std::sqrt((m2 - test.next).squaredNorm() / 200);
+  EXPECT_LT(sparse_rmse, 1.1 * exact_rmse)
+      << exact_rmse << " " << sparse->inducing_counts()[0] << " "
+      << sparse->inducing_counts()[1];
+
+  absl::StatusOr<DynamicsModel> restored = DynamicsModel::Create(sparse_options);
+  ASSERT_TRUE(restored.ok());
+  ASSERT_TRUE(restored->AddSamples(d.x, d.u, d.next).ok());
+  ASSERT_TRUE(restored->SeedWarmStart(sparse->hyperparameters(), 400).ok());
+  ASSERT_TRUE(restored->Rebuild().ok());
+  EXPECT_TRUE(restored->sparse());
+  EXPECT_EQ(restored->inducing_counts(), sparse->inducing_counts());
+  Eigen::MatrixXd m3, v3;
+  restored->Predict(Z(test), &m3, &v3, nullptr, nullptr);
+  EXPECT_LT((m2 - m3).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((v2 - v3).cwiseAbs().maxCoeff(), 1e-9 * v2.cwiseAbs().maxCoeff());
+}
+
 // A stopped Refit() leaves a usable model with the best hyperparameters so far
 // and keeps the refit due; the next Refit() continues and does not end lower.
 TEST(DynamicsModelTest, StoppedRefitIsUsableAndStaysDue) {
