@@ -33,11 +33,11 @@ struct Transitions {
   Eigen::MatrixXd states, inputs, next;
 };
 
-Transitions PendulumData(int n) {
+Transitions PendulumData(int n, uint64_t seed = 11, double noise_variance = 0.05) {
   const sim::Pendulum pendulum(sim::PendulumParameters{}, 0.1, 10);
-  std::mt19937_64 rng(11);
+  std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> input(-3.0, 3.0);
-  std::normal_distribution<double> noise(0.0, std::sqrt(0.05));
+  std::normal_distribution<double> noise(0.0, std::sqrt(noise_variance));
   Transitions t{Eigen::MatrixXd(n, 2), Eigen::MatrixXd(n, 1), Eigen::MatrixXd(n, 2)};
   Eigen::VectorXd x = Eigen::Vector2d(0.0, 0.0);
   Eigen::VectorXd u(1);
@@ -52,9 +52,12 @@ Transitions PendulumData(int n) {
   return t;
 }
 
-// A model holding the first n transitions of `data`, fitted once.
-gp::DynamicsModel FittedPendulumModel(const Transitions& data, int n) {
+// A model holding the first n transitions of `data`, fitted once; sparse above
+// `sparse_above` samples (0: exact).
+gp::DynamicsModel FittedPendulumModel(const Transitions& data, int n,
+                                      int sparse_above = 0) {
   gp::DynamicsModelOptions o;
+  o.sparse_above = sparse_above;
   o.state_dim = 2;
   o.input_dim = 1;
   o.measurement_noise_variance = 0.05;
@@ -154,7 +157,8 @@ void BM_RecStepAtSize(benchmark::State& state) {
   schedule.growth = static_cast<double>(state.range(1)) / 1000.0;
   const int kSteps = 40;
   const Transitions data = PendulumData(n0 + kSteps);
-  gp::DynamicsModel model = FittedPendulumModel(data, n0);
+  gp::DynamicsModel model =
+      FittedPendulumModel(data, n0, static_cast<int>(state.range(2)));
   Planner planner(PendulumOptions(Strategy::kRec));
   std::vector<double> step_ms;
   int refits = 0;
@@ -189,10 +193,28 @@ void BM_RecStepAtSize(benchmark::State& state) {
   state.counters["step_ms_p50"] = step_ms[step_ms.size() / 2];
   state.counters["step_ms_max"] = step_ms.back();
   state.counters["refits"] = refits;
+  // One-step accuracy on another trajectory, noise-free: the sparse model's
+  // price.
+  const Transitions test = PendulumData(500, 12, 0.0);
+  Eigen::MatrixXd z(500, 3), mean;
+  z << test.states, test.inputs;
+  model.Predict(z, &mean, nullptr, nullptr, nullptr);
+  state.counters["rmse"] = std::sqrt((mean - test.next).squaredNorm() / 500);
+  const std::vector<int> inducing = model.inducing_counts();
+  state.counters["inducing"] = inducing.empty() ? 0 : inducing.front() + inducing.back();
+  // One warm refit at the final size, outside the steps.
+  const Clock::time_point t0 = Clock::now();
+  if (!model.Refit().ok()) state.SkipWithError("refit failed");
+  state.counters["refit_ms"] = Ms(Clock::now() - t0);
 }
+// Args: samples, refit growth (per mille), sparse_above (0: exact).
 BENCHMARK(BM_RecStepAtSize)
-    ->ArgsProduct({{100, 300, 500, 1000}, {0, 50}})
-    ->Args({2000, 50})
+    ->ArgsProduct({{100, 300, 500, 1000}, {0, 50}, {0}})
+    ->Args({500, 50, 300})
+    ->Args({1000, 50, 500})
+    ->Args({2000, 50, 0})
+    ->Args({2000, 50, 500})
+    ->Args({10000, 50, 500})
     ->Iterations(40)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
