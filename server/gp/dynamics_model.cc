@@ -274,6 +274,13 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
   const Eigen::VectorXd old_prior_mean = s.prior_mean;
   s.prior_mean = s.targets.colwise().mean().transpose();
   if (!s.fitted) return absl::OkStatus();
+  if (!s.sparse && s.options.sparse_above > 0 && s.n() > s.options.sparse_above) {
+    // Crossing sparse_above between refits (or with hyperparameters that are never
+    // refitted): sparse models at once, with the current hyperparameters.
+    absl::Status st = Build(/*fit_hyperparameters=*/false, nullptr).status();
+    if (!st.ok()) s.fitted = false;  // Refit() rebuilds from the stored data.
+    return st;
+  }
   if (s.sparse) {
     // Added on the old prior mean, then every target shifted to the new one.
     const Eigen::MatrixXd zn = s.Normalise(z);
@@ -384,8 +391,12 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
       const Hyperparameters h = ToNormalised(
           s.options.fit_kernel ? s.data_hyperparameters[j] : s.options.fixed[j],
           s.half_width, out_std(j));
-      absl::Status st = sparse ? sparse_gps[j].Reset(zn, std::move(y_all), h)
-                               : gps[j].Reset(zn, std::move(y), h);
+      // Sparse: the subset's exact GP only for its log marginal likelihood.
+      absl::Status st = gps[j].Reset(sparse ? zn_fit : zn, std::move(y), h);
+      if (st.ok() && sparse) {
+        sparse_fit_lml[j] = gps[j].log_marginal_likelihood();
+        st = sparse_gps[j].Reset(zn, std::move(y_all), h);
+      }
       results[j] = st.ok() ? absl::StatusOr<FitSummary>(FitSummary{}) : st;
       return;
     }

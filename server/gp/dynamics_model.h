@@ -51,9 +51,10 @@ struct DynamicsModelOptions {
   // varies in the first samples gets a tiny half-width for good.)
   Eigen::VectorXd input_center;
   Eigen::VectorXd input_half_width;
-  // Long sessions: when a Refit() or Rebuild() finds more than this many samples,
-  // each output becomes a sparse GP (SparseGpModel, inducing points from all the
-  // data) whose hyperparameters are fitted by ML-II on a strided subset of
+  // Long sessions: when a Refit() or Rebuild() finds more than this many samples
+  // (or AddSamples() passes it on a fitted model: then with the current
+  // hyperparameters), each output becomes a sparse GP (SparseGpModel, inducing points
+  // from all the data) whose hyperparameters are fitted by ML-II on a strided subset of
   // `sparse_above` samples, so neither time nor memory per step grows as n^2.
   // 0: always exact.
   int sparse_above = 0;
@@ -172,10 +173,11 @@ class DynamicsModel final : public DynamicsPredictor {
   std::vector<Hyperparameters> hyperparameters() const;
   // Per output: log p(targets | inputs, hyperparameters) in data units, with the
   // prior mean prior_means() (the normalised LML minus n log(output scale));
-  // for a sparse model, that of the exact GP on the fit's subset at the last
-  // Refit(). Empty before the first Refit().
+  // for a sparse model, that of the exact GP on the subset of sparse_above samples
+  // (evenly spread) at the last Refit() or Rebuild(). Empty before the first
+  // Refit().
   std::vector<double> log_marginal_likelihoods() const;
-  // True when the outputs are sparse GPs (since the last Refit() or Rebuild()).
+  // True when the outputs are sparse GPs.
   bool sparse() const;
   // Inducing points of each output (empty unless sparse()).
   std::vector<int> inducing_counts() const;

@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "server/gp/hyperparameter_fit.h"
+#include "server/gp/sparse_gp_model.h"
 #include "server/plan/planner.h"
 #include "server/service/field_violation.h"
 #include "server/service/value_ranges.h"
@@ -350,6 +351,49 @@ absl::Status ValidateOptimistic(absl::string_view path, v1::SessionConfig* confi
   return absl::OkStatus();
 }
 
+// SparseConfig: MI and ROI need the exact GP's joint covariances, so they stay
+// exact; the other strategies default to sparse above kDefaultSparseAboveSamples.
+absl::Status ValidateSparse(absl::string_view path, v1::SessionConfig* config) {
+  const std::string spath = Field(path, "sparse");
+  v1::SparseConfig* sparse = config->mutable_sparse();
+  const bool joint =
+      config->strategy() == v1::STRATEGY_MI || config->strategy() == v1::STRATEGY_ROI;
+  if (!sparse->has_above_samples()) {
+    sparse->set_above_samples(joint ? 0 : kDefaultSparseAboveSamples);
+  }
+  const int32_t above = sparse->above_samples();
+  if (joint && above != 0) {
+    return Invalid(
+        Field(spath, "above_samples"),
+        absl::StrCat("must be 0 (never sparse) for ",
+                     v1::Strategy_Name(config->strategy()),
+                     ", which needs the exact GP's joint covariances; got ", above));
+  }
+  if (above != 0 && (above < kMinSparseAboveSamples || above > kMaxSparseAboveSamples)) {
+    return Invalid(
+        Field(spath, "above_samples"),
+        absl::StrCat("must be 0 (never sparse) or in [", kMinSparseAboveSamples, ", ",
+                     kMaxSparseAboveSamples, "], got ", above));
+  }
+  const gp::SparseGpOptions defaults;
+  int32_t inducing = sparse->max_inducing();
+  if (absl::Status s = IntWithDefault(Field(spath, "max_inducing"), &inducing,
+                                      defaults.max_inducing, 1, kMaxInducingPoints);
+      !s.ok()) {
+    return s;
+  }
+  const double tolerance = sparse->inducing_tolerance();
+  if (tolerance != 0.0 && !(tolerance >= 1e-6 && tolerance <= 1e6)) {
+    return Invalid(Field(spath, "inducing_tolerance"),
+                   absl::StrCat("must be 0 (default ", defaults.inducing_tolerance,
+                                ") or in [1e-6, 1e6] noise variances, got ", tolerance));
+  }
+  if (above == 0) return absl::OkStatus();
+  sparse->set_max_inducing(inducing);
+  if (tolerance == 0.0) sparse->set_inducing_tolerance(defaults.inducing_tolerance);
+  return absl::OkStatus();
+}
+
 // SafetyConfig: 0 or state_dim intervals; the margin filled in (2) when a box
 // is set.
 absl::Status ValidateSafety(absl::string_view path, v1::SessionConfig* config) {
@@ -526,6 +570,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
     problems.Add(ValidateOptimistic(path, config));
     problems.Add(ValidateSafety(path, config));
   }
+  problems.Add(ValidateSparse(path, config));
   problems.Add(ValidatePlanner(path, config->mutable_planner()));
   return problems.Result();
 }

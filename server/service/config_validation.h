@@ -26,6 +26,13 @@ inline constexpr int kDefaultRefitEverySamples = 1;  // refit.every_samples
 // and refit / plan grows as n, which growth * n refits apart cancels).
 inline constexpr double kDefaultRefitGrowth = 0.05;
 inline constexpr int kDefaultMinSamples = 2;  // refit.min_samples
+// sparse.above_samples: where the exact GP's rec step on the pendulum passed 50 ms
+// (bench/plan BM_RecStepAtSize, 53 ms p50 at n = 300) while the sparse model's
+// one-step RMSE stayed within 10 % of the exact one's (README).
+inline constexpr int kDefaultSparseAboveSamples = 300;
+inline constexpr int kMinSparseAboveSamples = 10;
+inline constexpr int kMaxSparseAboveSamples = 1000000;
+inline constexpr int kMaxInducingPoints = 4096;
 
 // Validates a SessionConfig, wherever it comes from (CreateSession on the wire or a
 // textproto file), and fills the defaults in place so that the stored config says
@@ -65,6 +72,10 @@ inline constexpr int kDefaultMinSamples = 2;  // refit.min_samples
 //   roi: reference_points in [1, 4096] (0: default 256);
 //   safety: state_bounds 0 or state_dim intervals, as state_bounds; margin
 //     finite in [0, kMaxSafetyMargin] (unset with a box: 2).
+//   sparse: above_samples 0 or in [10, 1000000] (unset: 300; MI and ROI: unset
+//     or 0, filled in as 0); max_inducing in [0, 4096] (0: default 256);
+//     inducing_tolerance 0 (default 0.1) or finite in [1e-6, 1e6]; the last two
+//     filled in only when above_samples > 0.
 //   signal, sep and roi fields that are set are checked whatever the strategy, but
 //   defaults are filled in only for the fields the session's strategy uses (prbs:
 //   prbs_min_hold; chirp: the chirp_* fields; random: random_hold; sep: all of

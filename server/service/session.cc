@@ -301,12 +301,14 @@ void Session::PublishInfo() {
   if (model_.has_value()) {
     const std::vector<gp::Hyperparameters> hyperparameters = model_->hyperparameters();
     const std::vector<double> lml = model_->log_marginal_likelihoods();
+    const std::vector<int> inducing = model_->inducing_counts();
     const Eigen::VectorXd prior_means = model_->prior_means();
     for (size_t i = 0; i < hyperparameters.size(); ++i) {
       v1::OutputModel output;
       *output.mutable_hyperparameters() = ToProto(hyperparameters[i]);
       if (i < lml.size()) output.set_log_marginal_likelihood(lml[i]);
       output.set_prior_mean(prior_means(static_cast<Eigen::Index>(i)));
+      if (i < inducing.size()) output.set_inducing_points(inducing[i]);
       info.outputs.push_back(std::move(output));
     }
   }
@@ -651,9 +653,11 @@ void Session::AttachMemoryBudget(MemoryBudget* budget, int64_t reserved) {
 }
 
 int64_t Session::EstimatedBytes(int64_t samples) const {
+  const gp::DynamicsModelOptions options = ModelOptionsFromConfig(config_);
   return kSessionBytes +
          gp::DynamicsModel::PeakBytes(samples, config_.state_dim(), config_.input_dim(),
-                                      ModelOptionsFromConfig(config_).fit_threads);
+                                      options.fit_threads, options.sparse_above,
+                                      options.sparse.max_inducing);
 }
 
 void Session::SettleBudget() {

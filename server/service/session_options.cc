@@ -43,6 +43,14 @@ gp::DynamicsModelOptions ModelOptionsFromConfig(const v1::SessionConfig& config)
   options.fit.restarts = config.kernel().restarts();
   options.fit.max_iterations = config.kernel().max_iterations();
   options.fit.seed = config.seed();
+  // Unset in configs stored before sparse models existed: those sessions stay exact.
+  options.sparse_above = config.sparse().above_samples();
+  if (config.sparse().max_inducing() > 0) {
+    options.sparse.max_inducing = config.sparse().max_inducing();
+  }
+  if (config.sparse().inducing_tolerance() > 0.0) {
+    options.sparse.inducing_tolerance = config.sparse().inducing_tolerance();
+  }
 
   const int dx = config.state_dim();
   const int z_dim = dx + config.input_dim();

@@ -361,6 +361,41 @@ TEST(DynamicsModelTest, SparseFitIsCloseToExactAndRebuildsTheSame) {
   EXPECT_LT((v2 - v3).cwiseAbs().maxCoeff(), 1e-9 * v2.cwiseAbs().maxCoeff());
 }
 
+// A fitted model that passes sparse_above in AddSamples (fixed hyperparameters, or
+// between refits) turns sparse at once, keeps its refit schedule, and equals a model
+// built from all the samples in one go (as after a restart).
+TEST(DynamicsModelTest, PassingSparseAboveInAddSamplesSwitchesToSparse) {
+  DynamicsModelOptions o = BaseOptions(Target::kDelta);
+  o.fit_kernel = false;
+  o.fixed = DataUnitHyperparameters();
+  o.sparse_above = 30;
+  absl::StatusOr<DynamicsModel> live = DynamicsModel::Create(o);
+  absl::StatusOr<DynamicsModel> rebuilt = DynamicsModel::Create(o);
+  ASSERT_TRUE(live.ok() && rebuilt.ok());
+  const Transitions d = MakeTransitions(45, 25);
+  ASSERT_TRUE(
+      live->AddSamples(d.x.topRows(20), d.u.topRows(20), d.next.topRows(20)).ok());
+  ASSERT_TRUE(live->Refit().ok());
+  for (int i = 20; i < 45; ++i) {
+    ASSERT_TRUE(live->AddSamples(d.x.row(i), d.u.row(i), d.next.row(i)).ok());
+    EXPECT_EQ(live->sparse(), i + 1 > 30) << i;
+  }
+  EXPECT_EQ(live->samples_since_fit(), 25);
+  ASSERT_TRUE(rebuilt->AddSamples(d.x, d.u, d.next).ok());
+  ASSERT_TRUE(rebuilt->Refit().ok());
+  ASSERT_TRUE(rebuilt->sparse());
+  EXPECT_EQ(live->inducing_counts(), rebuilt->inducing_counts());
+  const std::vector<double> lml = live->log_marginal_likelihoods();
+  ASSERT_EQ(lml.size(), 2u);
+  for (double v : lml) EXPECT_TRUE(std::isfinite(v));
+  const Eigen::MatrixXd zt = Z(MakeTransitions(8, 26));
+  Eigen::MatrixXd m1, v1, m2, v2;
+  live->Predict(zt, &m1, &v1, nullptr, nullptr);
+  rebuilt->Predict(zt, &m2, &v2, nullptr, nullptr);
+  EXPECT_LT((m1 - m2).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((v1 - v2).cwiseAbs().maxCoeff(), 1e-9);
+}
+
 // A stopped Refit() leaves a usable model with the best hyperparameters so far
 // and keeps the refit due; the next Refit() continues and does not end lower.
 TEST(DynamicsModelTest, StoppedRefitIsUsableAndStaysDue) {

@@ -62,6 +62,9 @@ TEST(ConfigValidationTest, FillsDocumentedDefaults) {
   EXPECT_EQ(config.planner().restarts(), 1);
   EXPECT_EQ(config.planner().tolerance(), 1e-4);
   EXPECT_EQ(config.planner().time_budget_s(), 10.0);
+  EXPECT_EQ(config.sparse().above_samples(), 300);
+  EXPECT_EQ(config.sparse().max_inducing(), 256);
+  EXPECT_EQ(config.sparse().inducing_tolerance(), 0.1);
   // Idempotent: a validated config validates to itself.
   v1::SessionConfig again = config;
   ASSERT_TRUE(ValidateSessionConfig(&again).ok());
@@ -314,6 +317,50 @@ TEST(ConfigValidationTest, RefitAndPlanner) {
   c = Valid();
   c.mutable_planner()->set_time_budget_s(std::nan(""));
   ExpectInvalid(c, "config.planner.time_budget_s");
+}
+
+TEST(ConfigValidationTest, Sparse) {
+  // 0: never sparse; the other two are then left unset.
+  v1::SessionConfig c = Valid();
+  c.mutable_sparse()->set_above_samples(0);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_TRUE(c.sparse().has_above_samples());
+  EXPECT_EQ(c.sparse().above_samples(), 0);
+  EXPECT_EQ(c.sparse().max_inducing(), 0);
+  // MI and ROI need joint covariances: exact by default, and only exact.
+  for (v1::Strategy joint : {v1::STRATEGY_MI, v1::STRATEGY_ROI}) {
+    c = Valid();
+    c.set_strategy(joint);
+    ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+    EXPECT_EQ(c.sparse().above_samples(), 0);
+    c = Valid();
+    c.set_strategy(joint);
+    c.mutable_sparse()->set_above_samples(500);
+    ExpectInvalid(c, "config.sparse.above_samples", "joint covariances");
+  }
+  for (int above : {-1, 9, 1000001}) {
+    c = Valid();
+    c.mutable_sparse()->set_above_samples(above);
+    ExpectInvalid(c, "config.sparse.above_samples", "[10, 1000000]");
+  }
+  for (int inducing : {-1, 4097}) {
+    c = Valid();
+    c.mutable_sparse()->set_max_inducing(inducing);
+    ExpectInvalid(c, "config.sparse.max_inducing", "[1, 4096]");
+  }
+  for (double tolerance : {-0.1, 1e-7, 2e6, std::nan("")}) {
+    c = Valid();
+    c.mutable_sparse()->set_inducing_tolerance(tolerance);
+    ExpectInvalid(c, "config.sparse.inducing_tolerance", "[1e-6, 1e6]");
+  }
+  c = Valid();
+  c.mutable_sparse()->set_above_samples(1000);
+  c.mutable_sparse()->set_max_inducing(64);
+  c.mutable_sparse()->set_inducing_tolerance(0.01);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.sparse().above_samples(), 1000);
+  EXPECT_EQ(c.sparse().max_inducing(), 64);
+  EXPECT_EQ(c.sparse().inducing_tolerance(), 0.01);
 }
 
 TEST(ConfigValidationTest, PathPrefixForConfigFiles) {

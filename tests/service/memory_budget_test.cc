@@ -28,9 +28,12 @@ using ::testing::HasSubstr;
 
 // Fixed hyperparameters: Predict then only factorises (a fit of hundreds of
 // samples can outlast the config's time budget under the sanitizers).
+// Exact GPs at any size: their estimate grows as n^2.
 v1::SessionConfig FixedConfig() {
   const v1::Hyperparameters h = PendulumHyperparameters(1.0, {1.0, 1.0, 1.0});
-  return PendulumFixedKernelConfig(h, h);
+  v1::SessionConfig config = PendulumFixedKernelConfig(h, h);
+  config.mutable_sparse()->set_above_samples(0);
+  return config;
 }
 
 // A pendulum session's model with n samples, as the budget estimates it (the
@@ -104,6 +107,27 @@ TEST_F(MemoryBudgetTest, RefusesGrowthBeyondTheBudgetAndStoresNothing) {
   imported = client_->ImportSession(*archive, "b");
   ASSERT_TRUE(imported.ok()) << imported.status();
   EXPECT_EQ(SampleCount("sessions/b"), 310);
+}
+
+// Above sparse.above_samples the estimate grows as n (the samples) plus the sparse
+// models' fixed size: a budget that holds an exact session of 300 samples holds a
+// sparse one of 3000.
+TEST_F(MemoryBudgetTest, SparseSessionsGrowLinearly) {
+  EXPECT_LT(gp::DynamicsModel::PeakBytes(3000, 2, 1, 1, 100, 256), ModelBytes(300));
+  Start(ModelBytes(300));
+  v1::SessionConfig config = FixedConfig();
+  config.mutable_sparse()->set_above_samples(100);
+  ASSERT_TRUE(client_->CreateSession(config, "a").ok());
+  ASSERT_TRUE(client_->AddData("sessions/a", {PendulumTransitions(150, 0, 1)}).ok());
+  ExpectPredicts("sessions/a");  // fitted: sparse from here on
+  ASSERT_TRUE(client_->AddData("sessions/a", {PendulumTransitions(2850, 150, 2)}).ok());
+  EXPECT_EQ(SampleCount("sessions/a"), 3000);
+  ExpectPredicts("sessions/a");
+  // An exact session of 300 samples no longer fits beside it.
+  ASSERT_TRUE(client_->CreateSession(FixedConfig(), "b").ok());
+  EXPECT_EQ(
+      client_->AddData("sessions/b", {PendulumTransitions(300, 0, 3)}).status().code(),
+      absl::StatusCode::kResourceExhausted);
 }
 
 TEST_F(MemoryBudgetTest, RefusesNewSessionsWhenFull) {

@@ -492,12 +492,17 @@ TEST_F(ServiceTest, PredictionsSurviveRestartAndImportInEveryRefitPolicy) {
     double growth;
     bool never;
     bool fixed;
+    int sparse_above;  // 0: the default (300, never reached here)
   };
-  const Policy policies[] = {{"every-1", 1, 0.0, false, false},
-                             {"every-5", 5, 0.0, false, false},
-                             {"growth-20", 1, 0.2, false, false},
-                             {"never", 0, 0.0, true, false},
-                             {"fixed", 0, 0.0, false, true}};
+  // The sparse ones: from the first fit (20), and crossing 26 between two fits.
+  const Policy policies[] = {{"every-1", 1, 0.0, false, false, 0},
+                             {"every-5", 5, 0.0, false, false, 0},
+                             {"growth-20", 1, 0.2, false, false, 0},
+                             {"never", 0, 0.0, true, false, 0},
+                             {"fixed", 0, 0.0, false, true, 0},
+                             {"sparse-every-1", 1, 0.0, false, false, 20},
+                             {"sparse-fixed", 0, 0.0, false, true, 20},
+                             {"sparse-crossing", 1, 0.2, false, false, 26}};
   v1::PredictRequest predict;
   for (double v : {0.3, -0.4, 1.0, -2.0, 5.0, -1.5}) predict.add_inputs(v);
   std::vector<v1::PredictResponse> before;
@@ -516,6 +521,7 @@ TEST_F(ServiceTest, PredictionsSurviveRestartAndImportInEveryRefitPolicy) {
     config.mutable_refit()->set_every_samples(p.every_samples);
     config.mutable_refit()->set_growth(p.growth);
     config.mutable_refit()->set_never(p.never);
+    if (p.sparse_above > 0) config.mutable_sparse()->set_above_samples(p.sparse_above);
     const std::string name = Create(p.id, config).name();
     EXPECT_EQ(client_->GetSession(name)->config().kernel().fit(), !p.fixed);
     Add(name, {PendulumTransitions(25, 0, 31)});
@@ -527,6 +533,15 @@ TEST_F(ServiceTest, PredictionsSurviveRestartAndImportInEveryRefitPolicy) {
     absl::StatusOr<v1::PredictResponse> response = client_->Predict(predict);
     ASSERT_TRUE(response.ok()) << response.status();
     before.push_back(*response);
+    absl::StatusOr<v1::Session> session = client_->GetSession(name);
+    ASSERT_TRUE(session.ok()) << session.status();
+    for (const v1::OutputModel& output : session->outputs()) {
+      if (p.sparse_above > 0) {
+        EXPECT_GT(output.inducing_points(), 0) << name;
+      } else {
+        EXPECT_EQ(output.inducing_points(), 0) << name;
+      }
+    }
   }
   auto expect_same = [&](const std::string& name, const v1::PredictResponse& expected) {
     predict.set_session(name);
