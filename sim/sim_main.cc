@@ -16,6 +16,7 @@
 #include "client/connection_flags.h"
 #include "client/excite_client.h"
 #include "common/usage.h"
+#include "server/service/config_text.h"
 #include "sim/exploration_run.h"
 #include "sim/plants/plant_factory.h"
 #include "sim/run_summary.h"
@@ -31,6 +32,9 @@ ABSL_FLAG(int32_t, samples, 0, "transitions to collect; 0 keeps the config's");
 ABSL_FLAG(int64_t, seed, -1,
           "seed of the measurement noise and of the session; -1 keeps the config's "
           "session.seed");
+ABSL_FLAG(std::string, session_override, "",
+          "SessionConfig textproto merged over the config's session before the other "
+          "flags, e.g. 'refit { growth: 0.05 } sparse { above_samples: 0 }'");
 ABSL_FLAG(std::string, summary, "", "write the JSON run summary to this file");
 ABSL_FLAG(std::string, trajectory, "",
           "write every stored transition to this CSV file (step, x, u, x_next)");
@@ -56,6 +60,14 @@ int Main() {
   absl::StatusOr<v1::SimConfig> config = LoadSimConfig(config_path);
   if (!config.ok()) return Fail(config.status());
 
+  if (const std::string text = absl::GetFlag(FLAGS_session_override); !text.empty()) {
+    absl::StatusOr<v1::SessionConfig> patch = service::ParseSessionConfigText(text);
+    if (!patch.ok()) {
+      return Fail(absl::InvalidArgumentError(
+          absl::StrCat("--session_override: ", patch.status().message())));
+    }
+    config->mutable_session()->MergeFrom(*patch);
+  }
   SimOverrides overrides;
   const bool uniform_design = absl::GetFlag(FLAGS_strategy) == "uniform";
   if (const std::string name = absl::GetFlag(FLAGS_strategy);

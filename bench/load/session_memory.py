@@ -7,9 +7,11 @@ fitted kernel, streams the samples in batches of 100 with a Predict (a refit)
 after the first and the last batch, and reports the growth of the server's peak
 resident memory (VmHWM) beside the growth of excite_memory_estimate_bytes, the
 estimate the budget counts. Also the resident memory of 1000 empty sessions.
+The sessions are exact GPs unless --sparse_above is set (sparse.above_samples).
 
     bench/load/session_memory.py [--server build/release/server/excite-server]
                                  [--cases 2x1x500,2x1x1000,2x1x2000,8x2x1000]
+                                 [--sparse_above 0]
 """
 import argparse
 import os
@@ -30,6 +32,8 @@ def main():
     parser.add_argument("--server", default="build/release/server/excite-server")
     parser.add_argument("--cases", default="2x1x500,2x1x1000,2x1x2000,8x2x1000")
     parser.add_argument("--metrics_port", type=int, default=19464)
+    parser.add_argument("--sparse_above", type=int, default=0,
+                        help="the sessions' sparse.above_samples (0: exact GPs)")
     args = parser.parse_args()
     for case in args.cases.split(","):
         state_dim, input_dim, samples = (int(v) for v in case.split("x"))
@@ -69,7 +73,8 @@ def run_case(args, state_dim, input_dim, samples):
             "state_dim": state_dim, "input_dim": input_dim,
             "input_bounds": [[-3, 3]] * input_dim, "noise": {"variance": 1e-4},
             "kernel": {"fit": True, "restarts": 0, "max_iterations": 5},
-            "planner": {"time_budget_s": 3600}})
+            "planner": {"time_budget_s": 3600},
+            "sparse": {"above_samples": args.sparse_above}})
         start_time = time.time()
         for first in range(0, samples, 100):
             m = min(100, samples - first)

@@ -143,11 +143,12 @@ absl::StatusOr<DynamicsModel> DynamicsModel::Create(DynamicsModelOptions options
     }
   }
   if (options.fit_threads < 1) options.fit_threads = 1;
-  if (options.sparse_above < 0 || options.sparse.max_inducing < 1 ||
-      !(options.sparse.inducing_tolerance > 0.0) ||
+  if (options.sparse_above < 0 || options.sparse_fit_samples < 2 ||
+      options.sparse.max_inducing < 1 || !(options.sparse.inducing_tolerance > 0.0) ||
       !std::isfinite(options.sparse.inducing_tolerance)) {
     return absl::InvalidArgumentError(
-        "sparse_above must be >= 0, sparse.max_inducing >= 1 and "
+        "sparse_above must be >= 0, sparse_fit_samples >= 2, sparse.max_inducing >= 1 "
+        "and "
         "sparse.inducing_tolerance finite and > 0");
   }
   auto state = std::make_unique<State>();
@@ -171,16 +172,20 @@ int DynamicsModel::input_dim() const { return state_->input_dim; }
 int DynamicsModel::sample_count() const { return state_->n(); }
 
 int64_t DynamicsModel::PeakBytes(int64_t samples, int state_dim, int input_dim,
-                                 int fit_threads, int sparse_above, int max_inducing) {
+                                 int fit_threads, int sparse_above, int max_inducing,
+                                 int sparse_fit_samples) {
   const int64_t n = std::max<int64_t>(samples, 0);
   const int64_t z_dim = int64_t{state_dim} + input_dim;
   if (sparse_above > 0 && n > sparse_above) {
     // Per output: the sparse model (its factors, inputs and scaled inputs,
-    // targets) and the exact GP of the subset while it is fitted.
-    const int64_t per_output =
+    // targets) twice, as a Refit() builds the new one beside the old, with its
+    // workspace; and the exact GPs of the subset while they are fitted.
+    const int64_t model =
         SparseGpModel::FactorBytes(max_inducing, static_cast<int>(z_dim)) +
         static_cast<int64_t>(sizeof(double)) * n * (2 * z_dim + 1);
-    const int64_t fit = PeakBytes(sparse_above, state_dim, input_dim, fit_threads);
+    const int64_t per_output = 2 * model + SparseGpModel::WorkspaceBytes(max_inducing);
+    const int64_t fit = PeakBytes(std::min<int64_t>(n, sparse_fit_samples), state_dim,
+                                  input_dim, fit_threads);
     return state_dim * per_output +
            static_cast<int64_t>(sizeof(double)) * n * (z_dim + state_dim) + fit;
   }
@@ -366,7 +371,8 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
   const bool sparse = s.options.sparse_above > 0 && n > s.options.sparse_above;
   std::vector<Eigen::Index> subset;
   if (sparse) {
-    const int count = s.options.sparse_above;
+    const int count =
+        static_cast<int>(std::min<int64_t>(n, s.options.sparse_fit_samples));
     for (int i = 0; i < count; ++i) {
       subset.push_back(static_cast<Eigen::Index>(int64_t{i} * n / count));
     }

@@ -269,4 +269,9 @@ int64_t SparseGpModel::FactorBytes(int max_inducing, int dim) {
          static_cast<int64_t>(sizeof(int)) * m;
 }
 
+int64_t SparseGpModel::WorkspaceBytes(int max_inducing) {
+  const int64_t m = max_inducing;
+  return static_cast<int64_t>(sizeof(double)) * (2 * m * kBlock + m * m);
+}
+
 }  // namespace excite::gp

@@ -74,6 +74,9 @@ class SparseGpModel {
   // Bytes of what the model keeps besides its data (n (d + 1) doubles twice:
   // raw and scaled inputs), for `max_inducing` points of dimension d.
   static int64_t FactorBytes(int max_inducing, int dim);
+  // Bytes Reset() and an inducing point's addition allocate while they run (blocks
+  // of the m x n matrix A and B = I + A A^T).
+  static int64_t WorkspaceBytes(int max_inducing);
 
  private:
   absl::Status CheckSample(const Eigen::VectorXd& x, double y) const;

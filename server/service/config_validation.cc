@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "server/gp/dynamics_model.h"
 #include "server/gp/hyperparameter_fit.h"
 #include "server/gp/sparse_gp_model.h"
 #include "server/plan/planner.h"
@@ -382,6 +383,13 @@ absl::Status ValidateSparse(absl::string_view path, v1::SessionConfig* config) {
       !s.ok()) {
     return s;
   }
+  int32_t fit_samples = sparse->fit_samples();
+  if (absl::Status s = IntWithDefault(Field(spath, "fit_samples"), &fit_samples,
+                                      gp::DynamicsModelOptions().sparse_fit_samples,
+                                      kMinSparseAboveSamples, kMaxSparseFitSamples);
+      !s.ok()) {
+    return s;
+  }
   const double tolerance = sparse->inducing_tolerance();
   if (tolerance != 0.0 && !(tolerance >= 1e-6 && tolerance <= 1e6)) {
     return Invalid(Field(spath, "inducing_tolerance"),
@@ -390,6 +398,7 @@ absl::Status ValidateSparse(absl::string_view path, v1::SessionConfig* config) {
   }
   if (above == 0) return absl::OkStatus();
   sparse->set_max_inducing(inducing);
+  sparse->set_fit_samples(fit_samples);
   if (tolerance == 0.0) sparse->set_inducing_tolerance(defaults.inducing_tolerance);
   return absl::OkStatus();
 }

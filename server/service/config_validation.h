@@ -33,6 +33,7 @@ inline constexpr int kDefaultSparseAboveSamples = 300;
 inline constexpr int kMinSparseAboveSamples = 10;
 inline constexpr int kMaxSparseAboveSamples = 1000000;
 inline constexpr int kMaxInducingPoints = 4096;
+inline constexpr int kMaxSparseFitSamples = 100000;
 
 // Validates a SessionConfig, wherever it comes from (CreateSession on the wire or a
 // textproto file), and fills the defaults in place so that the stored config says
@@ -74,8 +75,9 @@ inline constexpr int kMaxInducingPoints = 4096;
 //     finite in [0, kMaxSafetyMargin] (unset with a box: 2).
 //   sparse: above_samples 0 or in [10, 1000000] (unset: 300; MI and ROI: unset
 //     or 0, filled in as 0); max_inducing in [0, 4096] (0: default 256);
-//     inducing_tolerance 0 (default 0.1) or finite in [1e-6, 1e6]; the last two
-//     filled in only when above_samples > 0.
+//     inducing_tolerance 0 (default 0.1) or finite in [1e-6, 1e6]; fit_samples in
+//     [10, 100000] (0: default 1000); the last three filled in only when
+//     above_samples > 0.
 //   signal, sep and roi fields that are set are checked whatever the strategy, but
 //   defaults are filled in only for the fields the session's strategy uses (prbs:
 //   prbs_min_hold; chirp: the chirp_* fields; random: random_hold; sep: all of

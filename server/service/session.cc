@@ -654,10 +654,10 @@ void Session::AttachMemoryBudget(MemoryBudget* budget, int64_t reserved) {
 
 int64_t Session::EstimatedBytes(int64_t samples) const {
   const gp::DynamicsModelOptions options = ModelOptionsFromConfig(config_);
-  return kSessionBytes +
-         gp::DynamicsModel::PeakBytes(samples, config_.state_dim(), config_.input_dim(),
-                                      options.fit_threads, options.sparse_above,
-                                      options.sparse.max_inducing);
+  return kSessionBytes + gp::DynamicsModel::PeakBytes(
+                             samples, config_.state_dim(), config_.input_dim(),
+                             options.fit_threads, options.sparse_above,
+                             options.sparse.max_inducing, options.sparse_fit_samples);
 }
 
 void Session::SettleBudget() {

@@ -48,6 +48,9 @@ gp::DynamicsModelOptions ModelOptionsFromConfig(const v1::SessionConfig& config)
   if (config.sparse().max_inducing() > 0) {
     options.sparse.max_inducing = config.sparse().max_inducing();
   }
+  if (config.sparse().fit_samples() > 0) {
+    options.sparse_fit_samples = config.sparse().fit_samples();
+  }
   if (config.sparse().inducing_tolerance() > 0.0) {
     options.sparse.inducing_tolerance = config.sparse().inducing_tolerance();
   }

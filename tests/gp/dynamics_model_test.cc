@@ -319,6 +319,7 @@ TEST(DynamicsModelTest, SparseFitIsCloseToExactAndRebuildsTheSame) {
   o.fit.seed = 3;
   DynamicsModelOptions sparse_options = o;
   sparse_options.sparse_above = 150;
+  sparse_options.sparse_fit_samples = 150;  // hyperparameters from a subset
   absl::StatusOr<DynamicsModel> exact = DynamicsModel::Create(o);
   absl::StatusOr<DynamicsModel> sparse = DynamicsModel::Create(sparse_options);
   ASSERT_TRUE(exact.ok() && sparse.ok());

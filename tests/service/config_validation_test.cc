@@ -65,6 +65,7 @@ TEST(ConfigValidationTest, FillsDocumentedDefaults) {
   EXPECT_EQ(config.sparse().above_samples(), 300);
   EXPECT_EQ(config.sparse().max_inducing(), 256);
   EXPECT_EQ(config.sparse().inducing_tolerance(), 0.1);
+  EXPECT_EQ(config.sparse().fit_samples(), 1000);
   // Idempotent: a validated config validates to itself.
   v1::SessionConfig again = config;
   ASSERT_TRUE(ValidateSessionConfig(&again).ok());
@@ -348,6 +349,11 @@ TEST(ConfigValidationTest, Sparse) {
     c.mutable_sparse()->set_max_inducing(inducing);
     ExpectInvalid(c, "config.sparse.max_inducing", "[1, 4096]");
   }
+  for (int fit_samples : {-1, 9, 100001}) {
+    c = Valid();
+    c.mutable_sparse()->set_fit_samples(fit_samples);
+    ExpectInvalid(c, "config.sparse.fit_samples", "[10, 100000]");
+  }
   for (double tolerance : {-0.1, 1e-7, 2e6, std::nan("")}) {
     c = Valid();
     c.mutable_sparse()->set_inducing_tolerance(tolerance);
@@ -357,7 +363,9 @@ TEST(ConfigValidationTest, Sparse) {
   c.mutable_sparse()->set_above_samples(1000);
   c.mutable_sparse()->set_max_inducing(64);
   c.mutable_sparse()->set_inducing_tolerance(0.01);
+  c.mutable_sparse()->set_fit_samples(500);
   ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.sparse().fit_samples(), 500);
   EXPECT_EQ(c.sparse().above_samples(), 1000);
   EXPECT_EQ(c.sparse().max_inducing(), 64);
   EXPECT_EQ(c.sparse().inducing_tolerance(), 0.01);

@@ -110,23 +110,30 @@ TEST_F(MemoryBudgetTest, RefusesGrowthBeyondTheBudgetAndStoresNothing) {
 }
 
 // Above sparse.above_samples the estimate grows as n (the samples) plus the sparse
-// models' fixed size: a budget that holds an exact session of 300 samples holds a
-// sparse one of 3000.
+// models' and the subset fit's fixed size: a budget that holds an exact session of
+// 500 samples holds a sparse one of 3000 (hyperparameters fitted on 100).
 TEST_F(MemoryBudgetTest, SparseSessionsGrowLinearly) {
-  EXPECT_LT(gp::DynamicsModel::PeakBytes(3000, 2, 1, 1, 100, 256), ModelBytes(300));
-  Start(ModelBytes(300));
+  const auto sparse_bytes = [](int64_t n) {
+    return gp::DynamicsModel::PeakBytes(n, 2, 1, 2, 100, 256, 100);
+  };
+  // Per sample: each output's sparse model keeps the inputs twice and the target,
+  // twice while a refit builds the new model; the model's inputs and targets.
+  EXPECT_EQ(sparse_bytes(30000) - sparse_bytes(3000), 27000 * 8 * (2 * 2 * 7 + 5));
+  EXPECT_LT(sparse_bytes(3000), ModelBytes(500));
+  Start(ModelBytes(500) + (64 << 10));
   v1::SessionConfig config = FixedConfig();
   config.mutable_sparse()->set_above_samples(100);
+  config.mutable_sparse()->set_fit_samples(100);
   ASSERT_TRUE(client_->CreateSession(config, "a").ok());
   ASSERT_TRUE(client_->AddData("sessions/a", {PendulumTransitions(150, 0, 1)}).ok());
   ExpectPredicts("sessions/a");  // fitted: sparse from here on
   ASSERT_TRUE(client_->AddData("sessions/a", {PendulumTransitions(2850, 150, 2)}).ok());
   EXPECT_EQ(SampleCount("sessions/a"), 3000);
   ExpectPredicts("sessions/a");
-  // An exact session of 300 samples no longer fits beside it.
+  // An exact session of 500 samples does not fit beside it.
   ASSERT_TRUE(client_->CreateSession(FixedConfig(), "b").ok());
   EXPECT_EQ(
-      client_->AddData("sessions/b", {PendulumTransitions(300, 0, 3)}).status().code(),
+      client_->AddData("sessions/b", {PendulumTransitions(500, 0, 3)}).status().code(),
       absl::StatusCode::kResourceExhausted);
 }
 
