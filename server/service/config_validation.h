@@ -26,10 +26,12 @@ inline constexpr int kDefaultRefitEverySamples = 1;  // refit.every_samples
 // and refit / plan grows as n, which growth * n refits apart cancels).
 inline constexpr double kDefaultRefitGrowth = 0.05;
 inline constexpr int kDefaultMinSamples = 2;  // refit.min_samples
-// sparse.above_samples: where the exact GP's rec step on the pendulum passed 50 ms
-// (bench/plan BM_RecStepAtSize, 53 ms p50 at n = 300) while the sparse model's
-// one-step RMSE stayed within 10 % of the exact one's (README).
-inline constexpr int kDefaultSparseAboveSamples = 300;
+// sparse.above_samples: the largest measured size at which the exact GP's rec step
+// on the pendulum stays under the 200 ms step target (bench/plan BM_RecStepAtSize:
+// 116-131 ms p50 at n = 1000, 323-390 ms at 2000). Not earlier: an exploration that
+// switched at 300 learned worse than the exact GP (README, "Sparse GP for long
+// sessions").
+inline constexpr int kDefaultSparseAboveSamples = 1000;
 inline constexpr int kMinSparseAboveSamples = 10;
 inline constexpr int kMaxSparseAboveSamples = 1000000;
 inline constexpr int kMaxInducingPoints = 4096;
@@ -73,7 +75,7 @@ inline constexpr int kMaxSparseFitSamples = 100000;
 //   roi: reference_points in [1, 4096] (0: default 256);
 //   safety: state_bounds 0 or state_dim intervals, as state_bounds; margin
 //     finite in [0, kMaxSafetyMargin] (unset with a box: 2).
-//   sparse: above_samples 0 or in [10, 1000000] (unset: 300; MI and ROI: unset
+//   sparse: above_samples 0 or in [10, 1000000] (unset: 1000; MI and ROI: unset
 //     or 0, filled in as 0); max_inducing in [0, 4096] (0: default 256);
 //     inducing_tolerance 0 (default 0.1) or finite in [1e-6, 1e6]; fit_samples in
 //     [10, 100000] (0: default 1000); the last three filled in only when

@@ -15,6 +15,7 @@ namespace excite::gp {
 namespace {
 
 using testing::Data;
+using testing::ExpectJacobiansMatchFiniteDifferences;
 using testing::MakeData;
 using testing::MakeHyperparameters;
 using testing::ReferenceGp;
@@ -136,23 +137,7 @@ TEST(GpModelTest, PredictJacobiansMatchFiniteDifferences) {
   const Data data = MakeData(30, d, 5);
   GpModel gp;
   ASSERT_TRUE(gp.Reset(data.x, data.y, MakeHyperparameters(d)).ok());
-  const Data test = MakeData(6, d, 6);
-  Eigen::VectorXd mean, var;
-  Eigen::MatrixXd dmean, dvar;
-  gp.Predict(test.x, &mean, &var, &dmean, &dvar);
-  const double eps = 1e-6;
-  for (int l = 0; l < d; ++l) {
-    Eigen::MatrixXd plus = test.x, minus = test.x;
-    plus.col(l).array() += eps;
-    minus.col(l).array() -= eps;
-    Eigen::VectorXd mp, vp, mm, vm;
-    gp.Predict(plus, &mp, &vp, nullptr, nullptr);
-    gp.Predict(minus, &mm, &vm, nullptr, nullptr);
-    for (int i = 0; i < 6; ++i) {
-      EXPECT_LT(RelErr(dmean(i, l), (mp(i) - mm(i)) / (2 * eps), 1e-3), 1e-6);
-      EXPECT_LT(RelErr(dvar(i, l), (vp(i) - vm(i)) / (2 * eps), 1e-3), 1e-6);
-    }
-  }
+  ExpectJacobiansMatchFiniteDifferences(gp, MakeData(6, d, 6).x);
 }
 
 TEST(GpModelTest, IllConditionedDataStaysFinite) {

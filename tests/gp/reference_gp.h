@@ -8,6 +8,7 @@
 #include <random>
 #include <utility>
 
+#include "gtest/gtest.h"
 #include "server/gp/hyperparameters.h"
 
 namespace excite::gp::testing {
@@ -100,6 +101,28 @@ inline Hyperparameters MakeHyperparameters(int d) {
 // Relative difference with an absolute floor.
 inline double RelErr(double a, double b, double floor = 1e-12) {
   return std::abs(a - b) / std::max({std::abs(a), std::abs(b), floor});
+}
+
+// The mean and variance Jacobians `model` predicts at the rows of x (GpModel or
+// SparseGpModel) against central differences of its own predictions.
+template <typename Model>
+void ExpectJacobiansMatchFiniteDifferences(const Model& model, const Eigen::MatrixXd& x) {
+  Eigen::VectorXd mean, var;
+  Eigen::MatrixXd dmean, dvar;
+  model.Predict(x, &mean, &var, &dmean, &dvar);
+  const double eps = 1e-6;
+  for (Eigen::Index l = 0; l < x.cols(); ++l) {
+    Eigen::MatrixXd plus = x, minus = x;
+    plus.col(l).array() += eps;
+    minus.col(l).array() -= eps;
+    Eigen::VectorXd mp, vp, mm, vm;
+    model.Predict(plus, &mp, &vp, nullptr, nullptr);
+    model.Predict(minus, &mm, &vm, nullptr, nullptr);
+    for (Eigen::Index i = 0; i < x.rows(); ++i) {
+      EXPECT_LT(RelErr(dmean(i, l), (mp(i) - mm(i)) / (2 * eps), 1e-3), 1e-6);
+      EXPECT_LT(RelErr(dvar(i, l), (vp(i) - vm(i)) / (2 * eps), 1e-3), 1e-6);
+    }
+  }
 }
 
 }  // namespace excite::gp::testing

@@ -13,6 +13,7 @@ namespace excite::gp {
 namespace {
 
 using testing::Data;
+using testing::ExpectJacobiansMatchFiniteDifferences;
 using testing::MakeData;
 using testing::MakeHyperparameters;
 using testing::ReferenceGp;
@@ -68,22 +69,7 @@ TEST(SparseGpModelTest, JacobiansMatchFiniteDifferences) {
   ASSERT_TRUE(sparse.Reset(data.x, data.y, MakeHyperparameters(d)).ok());
   ASSERT_GT(sparse.inducing_count(), 5);
   ASSERT_LT(sparse.inducing_count(), 300);
-  const Data test = MakeData(6, d, 6);
-  const Prediction p = PredictAll(sparse, test.x);
-  const double eps = 1e-6;
-  for (int l = 0; l < d; ++l) {
-    Eigen::MatrixXd plus = test.x, minus = test.x;
-    plus.col(l).array() += eps;
-    minus.col(l).array() -= eps;
-    Eigen::VectorXd mp, vp, mm, vm;
-    sparse.Predict(plus, &mp, &vp, nullptr, nullptr);
-    sparse.Predict(minus, &mm, &vm, nullptr, nullptr);
-    for (int i = 0; i < 6; ++i) {
-      EXPECT_LT(RelErr(p.mean_jacobian(i, l), (mp(i) - mm(i)) / (2 * eps), 1e-3), 1e-6);
-      EXPECT_LT(RelErr(p.variance_jacobian(i, l), (vp(i) - vm(i)) / (2 * eps), 1e-3),
-                1e-6);
-    }
-  }
+  ExpectJacobiansMatchFiniteDifferences(sparse, MakeData(6, d, 6).x);
 }
 
 TEST(SparseGpModelTest, AddingSamplesOneByOneEqualsABatch) {

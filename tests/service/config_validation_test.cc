@@ -62,7 +62,7 @@ TEST(ConfigValidationTest, FillsDocumentedDefaults) {
   EXPECT_EQ(config.planner().restarts(), 1);
   EXPECT_EQ(config.planner().tolerance(), 1e-4);
   EXPECT_EQ(config.planner().time_budget_s(), 10.0);
-  EXPECT_EQ(config.sparse().above_samples(), 300);
+  EXPECT_EQ(config.sparse().above_samples(), 1000);
   EXPECT_EQ(config.sparse().max_inducing(), 256);
   EXPECT_EQ(config.sparse().inducing_tolerance(), 0.1);
   EXPECT_EQ(config.sparse().fit_samples(), 1000);

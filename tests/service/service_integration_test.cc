@@ -492,7 +492,7 @@ TEST_F(ServiceTest, PredictionsSurviveRestartAndImportInEveryRefitPolicy) {
     double growth;
     bool never;
     bool fixed;
-    int sparse_above;  // 0: the default (300, never reached here)
+    int sparse_above;  // 0: the default (1000, never reached here)
   };
   // The sparse ones: from the first fit (20), and crossing 26 between two fits.
   const Policy policies[] = {{"every-1", 1, 0.0, false, false, 0},
