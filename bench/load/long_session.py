@@ -11,6 +11,7 @@ points and the server's peak resident memory.
 
     bench/load/long_session.py [--server build/release/server/excite-server]
                                [--sizes 2000,10000] [--sparse_above 1000] [--steps 40]
+                               [--max_inducing 0]
 """
 import argparse
 import os
@@ -66,7 +67,8 @@ def run(args, n, sparse_above):
             "state_bounds": [[-np.pi, np.pi], [-8, 8]],
             "noise": {"variance": 0.05, "fit": True}, "horizon": 15,
             "planner": {"time_budget_s": 3600},
-            "sparse": {"above_samples": sparse_above}})
+            "sparse": {"above_samples": sparse_above,
+                       "max_inducing": args.max_inducing}})
         rng = np.random.default_rng(n)
         xs, us, nexts, x = trajectory(rng, np.zeros(2), n)
         for first in range(0, n, 1000):
@@ -89,7 +91,7 @@ def run(args, n, sparse_above):
         with open(f"/proc/{server.pid}/status") as f:
             peak = next(int(line.split()[1]) for line in f if line.startswith("VmHWM"))
         ms = 1000 * np.array(steps)
-        print(f"n={n} sparse_above={sparse_above}: step p50 {np.median(ms):.1f} ms, "
+        print(f"n={n} sparse_above={sparse_above} max_inducing={args.max_inducing}: step p50 {np.median(ms):.1f} ms, "
               f"slowest {ms.max():.1f} ms ({args.steps} steps), first fit "
               f"{first_fit_s:.1f} s, inducing {inducing}, server peak RSS "
               f"{peak / 1024:.0f} MiB", flush=True)
@@ -104,6 +106,8 @@ def main():
     parser.add_argument("--sizes", default="2000,10000")
     parser.add_argument("--sparse_above", type=int, default=1000,
                         help="sparse.above_samples (0: exact GPs)")
+    parser.add_argument("--max_inducing", type=int, default=0,
+                        help="sparse.max_inducing (0: the server's default)")
     parser.add_argument("--steps", type=int, default=40)
     args = parser.parse_args()
     for n in (int(v) for v in args.sizes.split(",")):
