@@ -12,6 +12,7 @@
 #include "grpcpp/server_builder.h"
 #include "server/service/logging.h"
 #include "server/service/malformed_request_interceptor.h"
+#include "server/store/sqlite_store.h"
 
 namespace excite::service {
 
@@ -115,7 +116,7 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
             absl::StatusOr<SessionRegistry::Page> page = sessions->List(1000, token);
             if (!page.ok()) break;
             for (const std::shared_ptr<Session>& session : page->sessions) {
-              total += static_cast<double>(session->Describe().sample_count());
+              total += static_cast<double>(session->Snapshot().sample_count);
             }
             token = page->next_page_token;
           } while (!token.empty());
@@ -153,7 +154,7 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
   }
   Log(LogLevel::kInfo,
       absl::StrCat("serving ", server->registry_->size(), " sessions from ",
-                   server->store_->path(), "; memory budget ",
+                   server->store_->location(), "; memory budget ",
                    FormatBytes(server->budget_->limit()), ", ",
                    FormatBytes(server->budget_->used()), " in use"));
   if (server->budget_->used() > server->budget_->limit()) {

@@ -12,7 +12,7 @@
 #include "server/service/memory_budget.h"
 #include "server/service/metrics.h"
 #include "server/service/session_registry.h"
-#include "server/store/sqlite_store.h"
+#include "server/store/session_store.h"
 #include "server/web/web_view.h"
 
 namespace excite::service {
@@ -77,7 +77,7 @@ class ExciteServer {
 
   std::string host_;
   int port_ = 0;
-  std::unique_ptr<store::SqliteStore> store_;
+  std::unique_ptr<store::SessionStore> store_;
   std::unique_ptr<MemoryBudget> budget_;  // outlives registry_ (its sessions)
   std::unique_ptr<SessionRegistry> registry_;
   std::unique_ptr<ExplorationService> service_;

@@ -16,6 +16,8 @@
 #include "server/service/request_validation.h"
 #include "server/service/resource_name.h"
 #include "server/service/session_archive.h"
+#include "server/service/session_proto.h"
+#include "server/service/store_conversion.h"
 
 namespace excite::service {
 namespace {
@@ -137,7 +139,7 @@ grpc::Status ExplorationService::CreateSession(grpc::ServerContext* /*context*/,
         registry_->Create(request->session_id(), request->config(),
                           request->display_name(), request->labels());
     if (!session.ok()) return session.status();
-    *response = (*session)->Describe();
+    *response = SessionToProto(**session);
     Log(LogLevel::kInfo, absl::StrCat("created ", (*session)->name()));
     return absl::OkStatus();
   });
@@ -150,7 +152,7 @@ grpc::Status ExplorationService::GetSession(grpc::ServerContext* /*context*/,
     absl::StatusOr<std::shared_ptr<Session>> session =
         FindSession(request->name(), "name");
     if (!session.ok()) return session.status();
-    *response = (*session)->Describe();
+    *response = SessionToProto(**session);
     return absl::OkStatus();
   });
 }
@@ -165,7 +167,7 @@ grpc::Status ExplorationService::ListSessions(grpc::ServerContext* /*context*/,
         registry_->List(request->page_size(), request->page_token(), *filter);
     if (!page.ok()) return page.status();
     for (const std::shared_ptr<Session>& session : page->sessions) {
-      *response->add_sessions() = session->Describe();
+      *response->add_sessions() = SessionToProto(*session);
     }
     response->set_next_page_token(page->next_page_token);
     return absl::OkStatus();
@@ -210,10 +212,20 @@ absl::StatusOr<v1::AddDataResponse> ExplorationService::AddMessage(
       !s.ok()) {
     return naming_the_message(s);
   }
-  absl::StatusOr<v1::AddDataResponse> added =
-      (*session)->AddTransitions(request.transitions(), limits_.max_samples_per_session);
+  std::vector<store::SampleRecord> batch;
+  batch.reserve(static_cast<size_t>(request.transitions_size()));
+  for (const v1::Transition& t : request.transitions())
+    batch.push_back(ToSampleRecord(t));
+  absl::StatusOr<AddResult> added =
+      (*session)->AddSamples(batch, limits_.max_samples_per_session);
   if (absl::IsInvalidArgument(added.status())) return naming_the_message(added.status());
-  return added;
+  if (!added.ok()) return added.status();
+  v1::AddDataResponse response;
+  response.set_stored(added->stored);
+  response.set_duplicates(added->duplicates);
+  response.set_sample_count(added->sample_count);
+  response.set_model_version(added->model_version);
+  return response;
 }
 
 grpc::Status ExplorationService::AddData(grpc::ServerContext* context,
@@ -249,9 +261,9 @@ grpc::Status ExplorationService::AddData(grpc::ServerContext* context,
     }
     response->set_stored(stored);
     response->set_duplicates(duplicates);
-    const v1::Session described = session->Describe();
-    response->set_sample_count(described.sample_count());
-    response->set_model_version(described.model_version());
+    const SessionSnapshot snapshot = session->Snapshot();
+    response->set_sample_count(snapshot.sample_count);
+    response->set_model_version(snapshot.model_version);
     return absl::OkStatus();
   });
 }
@@ -305,12 +317,17 @@ grpc::Status ExplorationService::Predict(grpc::ServerContext* context,
         !s.ok()) {
       return s;
     }
-    absl::StatusOr<v1::PredictResponse> predicted = (*session)->Predict(
-        *request,
-        BudgetDeadline(*context, (*session)->config().planner().time_budget_s()),
+    const v1::SessionConfig& config = (*session)->config();
+    const int z_dim = config.state_dim() + config.input_dim();
+    absl::StatusOr<Prediction> predicted = (*session)->Predict(
+        RowMajorToMatrix(request->inputs(), request->inputs_size() / z_dim, z_dim),
+        request->include_noise(),
+        BudgetDeadline(*context, config.planner().time_budget_s()),
         ClientDeadline(*context), [context]() { return context->IsCancelled(); });
     if (!predicted.ok()) return predicted.status();
-    *response = *std::move(predicted);
+    AppendRowMajor(predicted->mean, response->mutable_mean());
+    AppendRowMajor(predicted->variance, response->mutable_variance());
+    response->set_model_version(predicted->model_version);
     return absl::OkStatus();
   });
 }
@@ -330,13 +347,14 @@ grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
     }
     const Clock::time_point deadline =
         BudgetDeadline(*context, (*session)->config().planner().time_budget_s());
-    absl::StatusOr<v1::PlanInputsResponse> plan = (*session)->PlanInputs(
-        *request, deadline, [context]() { return context->IsCancelled(); });
+    absl::StatusOr<PlanResult> plan = (*session)->PlanInputs(
+        Eigen::Map<const Eigen::VectorXd>(request->state().data(), request->state_size()),
+        deadline, [context]() { return context->IsCancelled(); });
     if (!plan.ok()) return plan.status();
     if (context->IsCancelled()) {
       return absl::CancelledError("PlanInputs was cancelled by the client");
     }
-    *response = *std::move(plan);
+    *response = PlanToProto(*plan);
     return absl::OkStatus();
   });
 }
@@ -348,7 +366,10 @@ grpc::Status ExplorationService::ExportSession(grpc::ServerContext* /*context*/,
     absl::StatusOr<std::shared_ptr<Session>> session =
         FindSession(request->name(), "name");
     if (!session.ok()) return session.status();
-    absl::StatusOr<v1::SessionArchive> archive = (*session)->Export();
+    absl::StatusOr<StoredSession> stored = (*session)->Export();
+    if (!stored.ok()) return stored.status();
+    absl::StatusOr<v1::SessionArchive> archive =
+        ArchiveFromStore(stored->record, stored->samples);
     if (!archive.ok()) return archive.status();
     const size_t bytes = archive->ByteSizeLong();
     if (bytes > static_cast<size_t>(limits_.max_message_bytes)) {
@@ -394,7 +415,7 @@ grpc::Status ExplorationService::ImportSession(grpc::ServerContext* /*context*/,
     absl::StatusOr<std::shared_ptr<Session>> session =
         registry_->Import(id, std::move(records.record), records.samples);
     if (!session.ok()) return session.status();
-    *response = (*session)->Describe();
+    *response = SessionToProto(**session);
     Log(LogLevel::kInfo, absl::StrCat("imported ", (*session)->name(), " with ",
                                       records.samples.size(), " samples"));
     return absl::OkStatus();

@@ -90,7 +90,7 @@ class ExplorationService final : public v1::ExplorationService::Service {
                                                        absl::string_view field) const;
   // One message of an AddData or StreamData stream: on the first, finds the
   // session into *session; then validates the message and stores it
-  // (Session::AddTransitions, whose reply counts this message). INVALID_ARGUMENT
+  // (Session::AddSamples, whose result counts this message). INVALID_ARGUMENT
   // names "message {index}".
   absl::StatusOr<v1::AddDataResponse> AddMessage(const v1::AddDataRequest& request,
                                                  int64_t message_index,

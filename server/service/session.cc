@@ -5,19 +5,14 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "google/protobuf/util/time_util.h"
 #include "server/service/field_violation.h"
 #include "server/service/logging.h"
 #include "server/service/resource_name.h"
-#include "server/service/session_archive.h"
 #include "server/service/session_options.h"
 #include "server/service/store_conversion.h"
 
 namespace excite::service {
 namespace {
-
-using RowMajorMatrix =
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 // Entries of one Predict chunk's cross-covariance matrix (points x samples):
 // 2^21 doubles, 16 MiB.
@@ -56,28 +51,6 @@ TransitionRows ToRows(const std::vector<store::SampleRecord>& samples, int dx, i
   return rows;
 }
 
-v1::SolverStatus ToProto(plan::PlanStatus status) {
-  switch (status) {
-    case plan::PlanStatus::kConverged:
-      return v1::SOLVER_STATUS_CONVERGED;
-    case plan::PlanStatus::kTimeLimit:
-      return v1::SOLVER_STATUS_TIME_LIMIT;
-    case plan::PlanStatus::kIterationLimit:
-      return v1::SOLVER_STATUS_ITERATION_LIMIT;
-    case plan::PlanStatus::kNotConverged:
-      return v1::SOLVER_STATUS_NOT_CONVERGED;
-  }
-  return v1::SOLVER_STATUS_UNSPECIFIED;
-}
-
-void AppendRowMajor(const Eigen::MatrixXd& matrix,
-                    google::protobuf::RepeatedField<double>* out) {
-  out->Reserve(out->size() + static_cast<int>(matrix.size()));
-  for (Eigen::Index i = 0; i < matrix.rows(); ++i) {
-    for (Eigen::Index j = 0; j < matrix.cols(); ++j) out->Add(matrix(i, j));
-  }
-}
-
 double SecondsSince(Session::Clock::time_point start) {
   return std::chrono::duration<double>(Session::Clock::now() - start).count();
 }
@@ -91,35 +64,10 @@ absl::Status InternalFromException(absl::string_view what, const std::exception&
   return absl::InternalError(absl::StrCat(what, ": unexpected exception: ", e.what()));
 }
 
-// The saved fit (store_conversion.h) in engine types.
-struct ParsedFit {
-  std::vector<gp::Hyperparameters> hyperparameters;
-  int64_t fitted_samples = 0;
-};
-
-// The saved fit, or nothing if it is absent or unusable for `config`.
-std::optional<ParsedFit> ParseSavedHyperparameters(const std::string& bytes,
-                                                   const v1::SessionConfig& config) {
-  std::optional<SavedFit> saved = DecodeSavedHyperparameters(bytes);
-  if (!saved.has_value() || saved->hyperparameters.empty() ||
-      static_cast<int>(saved->hyperparameters.size()) != config.state_dim()) {
-    return std::nullopt;
-  }
-  ParsedFit result;
-  result.fitted_samples = saved->fitted_samples;
-  for (const v1::Hyperparameters& h : saved->hyperparameters) {
-    if (h.lengthscales_size() != config.state_dim() + config.input_dim()) {
-      return std::nullopt;
-    }
-    result.hyperparameters.push_back(FromProto(h));
-  }
-  return result;
-}
-
 }  // namespace
 
 Session::Session(std::string id, v1::SessionConfig config, Metadata metadata,
-                 std::optional<gp::DynamicsModel> model, store::SqliteStore* store)
+                 std::optional<gp::DynamicsModel> model, store::SessionStore* store)
     : id_(std::move(id)),
       name_(SessionName(id_)),
       config_(std::move(config)),
@@ -135,7 +83,7 @@ Session::Metadata Session::MetadataOf(const store::SessionRecord& record) {
 absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
                                                          v1::SessionConfig config,
                                                          Metadata metadata,
-                                                         store::SqliteStore* store) {
+                                                         store::SessionStore* store) {
   try {
     absl::StatusOr<gp::DynamicsModel> model =
         gp::DynamicsModel::Create(ModelOptionsFromConfig(config));
@@ -146,7 +94,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
     std::shared_ptr<Session> session(new Session(
         std::move(id), std::move(config), std::move(metadata), *std::move(model), store));
     absl::MutexLock lock(&session->mu_);
-    session->PublishInfo();
+    session->PublishSnapshot();
     return session;
   } catch (const std::exception& e) {
     return InternalFromException("creating the session's model", e);
@@ -155,7 +103,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
 
 absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
     const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
-    store::SqliteStore* store, absl::Status unreadable) {
+    store::SessionStore* store, absl::Status unreadable) {
   v1::SessionConfig config;
   if (!config.ParseFromString(record.config)) {
     config.Clear();
@@ -168,8 +116,9 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
   try {
     gp::DynamicsModelOptions options = ModelOptionsFromConfig(config);
     if (config.refit().never() && config.kernel().fit()) {
-      if (std::optional<ParsedFit> saved =
-              ParseSavedHyperparameters(record.hyperparameters, config)) {
+      if (std::optional<EngineFit> saved =
+              DecodeSavedFit(record.hyperparameters, config.state_dim(),
+                             config.state_dim() + config.input_dim())) {
         options.fit_kernel = false;
         options.fit_noise = false;
         options.fixed = std::move(saved->hyperparameters);
@@ -213,8 +162,9 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
       // The model is rebuilt with the last saved fit while it is current, and
       // the next refit starts from it (a cache: unusable bytes just mean a cold
       // start).
-      if (std::optional<ParsedFit> saved =
-              ParseSavedHyperparameters(record.hyperparameters, config)) {
+      if (std::optional<EngineFit> saved =
+              DecodeSavedFit(record.hyperparameters, config.state_dim(),
+                             config.state_dim() + config.input_dim())) {
         const int fitted = static_cast<int>(std::min<int64_t>(saved->fitted_samples, n));
         if (absl::Status s =
                 model->SeedWarmStart(std::move(saved->hyperparameters), fitted);
@@ -231,7 +181,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
     session->sample_count_ = n;
     session->last_sequence_ = last_sequence;
     session->model_version_ = record.model_version + n;
-    session->PublishInfo();
+    session->PublishSnapshot();
     return session;
   } catch (const std::exception& e) {
     return InternalFromException(absl::StrCat("restoring session ", record.id), e);
@@ -241,7 +191,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
 std::shared_ptr<Session> Session::SetAside(
     const store::SessionRecord& record, v1::SessionConfig config,
     const std::vector<store::SampleRecord>& samples, absl::Status damage,
-    store::SqliteStore* store) {
+    store::SessionStore* store) {
   // Not fatal: the server serves every other session.
   absl::Status damaged = absl::DataLossError(absl::StrCat(
       "session ", SessionName(record.id), " is damaged: ", damage.message(),
@@ -260,60 +210,45 @@ std::shared_ptr<Session> Session::SetAside(
   session->sample_count_ = n;
   session->last_sequence_ = last_sequence;
   session->model_version_ = record.model_version + n;
-  session->PublishInfo();
+  session->PublishSnapshot();
   return session;
 }
 
-v1::Session Session::Describe() const {
-  v1::Session proto;
-  proto.set_name(name_);
-  *proto.mutable_config() = config_;
-  proto.set_display_name(metadata_.display_name);
-  proto.mutable_labels()->insert(metadata_.labels.begin(), metadata_.labels.end());
-  if (metadata_.created_unix_ms > 0) {
-    *proto.mutable_create_time() =
-        google::protobuf::util::TimeUtil::MillisecondsToTimestamp(
-            metadata_.created_unix_ms);
-  }
-  absl::MutexLock lock(&info_mu_);
-  proto.set_sample_count(info_.sample_count);
-  proto.set_last_sequence(info_.last_sequence);
-  proto.set_model_version(info_.model_version);
-  for (const v1::OutputModel& output : info_.outputs) *proto.add_outputs() = output;
-  if (info_.last_plan.has_value()) *proto.mutable_last_plan() = *info_.last_plan;
-  return proto;
+SessionSnapshot Session::Snapshot() const {
+  absl::MutexLock lock(&snapshot_mu_);
+  return snapshot_;
 }
 
 absl::Status Session::Damage() const {
-  absl::MutexLock lock(&info_mu_);
-  return info_.damage;
+  absl::MutexLock lock(&snapshot_mu_);
+  return damage_;
 }
 
-void Session::PublishInfo() {
-  Info info;
-  info.damage = damaged_;
-  info.last_plan = last_plan_;
-  info.sample_count = sample_count_;
-  info.last_sequence = last_sequence_;
-  info.model_version = model_version_;
+void Session::PublishSnapshot() {
+  SessionSnapshot snapshot;
+  snapshot.last_plan = last_plan_;
+  snapshot.sample_count = sample_count_;
+  snapshot.last_sequence = last_sequence_;
+  snapshot.model_version = model_version_;
   // After a restart and before the first refit: the saved hyperparameters (the
   // warm start of that refit), without a log marginal likelihood.
   if (model_.has_value()) {
-    const std::vector<gp::Hyperparameters> hyperparameters = model_->hyperparameters();
+    std::vector<gp::Hyperparameters> hyperparameters = model_->hyperparameters();
     const std::vector<double> lml = model_->log_marginal_likelihoods();
     const std::vector<int> inducing = model_->inducing_counts();
     const Eigen::VectorXd prior_means = model_->prior_means();
     for (size_t i = 0; i < hyperparameters.size(); ++i) {
-      v1::OutputModel output;
-      *output.mutable_hyperparameters() = ToProto(hyperparameters[i]);
-      if (i < lml.size()) output.set_log_marginal_likelihood(lml[i]);
-      output.set_prior_mean(prior_means(static_cast<Eigen::Index>(i)));
-      if (i < inducing.size()) output.set_inducing_points(inducing[i]);
-      info.outputs.push_back(std::move(output));
+      OutputSnapshot output;
+      output.hyperparameters = std::move(hyperparameters[i]);
+      if (i < lml.size()) output.log_marginal_likelihood = lml[i];
+      output.prior_mean = prior_means(static_cast<Eigen::Index>(i));
+      if (i < inducing.size()) output.inducing_points = inducing[i];
+      snapshot.outputs.push_back(std::move(output));
     }
   }
-  absl::MutexLock lock(&info_mu_);
-  info_ = std::move(info);
+  absl::MutexLock lock(&snapshot_mu_);
+  snapshot_ = std::move(snapshot);
+  damage_ = damaged_;
 }
 
 absl::Status Session::CheckUsable() {
@@ -333,18 +268,13 @@ absl::Status Session::CheckModelAccepts(const std::vector<store::SampleRecord>& 
                    " cannot take them (nothing was stored): ", checked.message()));
 }
 
-absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
-    const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
-    int64_t max_samples) {
+absl::StatusOr<AddResult> Session::AddSamples(
+    const std::vector<store::SampleRecord>& batch, int64_t max_samples) {
   const int dx = config_.state_dim();
   const int du = config_.input_dim();
-  std::vector<store::SampleRecord> batch;
-  batch.reserve(static_cast<size_t>(transitions.size()));
-  for (const v1::Transition& t : transitions) batch.push_back(ToSampleRecord(t));
-
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
-  v1::AddDataResponse response;
+  AddResult result;
   if (!batch.empty()) {
     if (sample_count_ + static_cast<int64_t>(batch.size()) > max_samples) {
       return absl::ResourceExhaustedError(absl::StrCat(
@@ -397,21 +327,21 @@ absl::StatusOr<v1::AddDataResponse> Session::AddTransitions(
       ++model_version_;
       SettleBudget();
       if (!added.ok()) {
-        PublishInfo();
+        PublishSnapshot();
         return absl::InternalError(absl::StrCat("session ", name_, ": ", n,
                                                 " samples were stored but the GP update "
                                                 "failed: ",
                                                 added.message()));
       }
     }
-    response.set_stored(inserted->stored_count);
-    response.set_duplicates(inserted->duplicate_count);
+    result.stored = inserted->stored_count;
+    result.duplicates = inserted->duplicate_count;
     SettleBudget();  // all duplicates: nothing added
   }
-  response.set_sample_count(sample_count_);
-  response.set_model_version(model_version_);
-  PublishInfo();
-  return response;
+  result.sample_count = sample_count_;
+  result.model_version = model_version_;
+  PublishSnapshot();
+  return result;
 }
 
 absl::Status Session::EnsureFitted(Clock::time_point deadline,
@@ -436,7 +366,7 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
                                               sample_count_,
                                               " samples failed: ", s.message()));
     }
-    PublishInfo();
+    PublishSnapshot();
     return absl::OkStatus();
   }
 
@@ -455,7 +385,7 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
                      " samples failed: ", summary.status().message()));
   }
   ++model_version_;
-  PublishInfo();
+  PublishSnapshot();
   if (metrics_ != nullptr) {
     metrics_->RecordFit(summary->wall_time_ms / 1000.0, summary->stopped);
   }
@@ -466,15 +396,8 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
                      " failed_starts=", summary->failed_starts,
                      " ms=", summary->wall_time_ms, summary->stopped ? " stopped" : ""));
   }
-  google::protobuf::RepeatedPtrField<v1::Hyperparameters> fitted;
-  {
-    absl::MutexLock lock(&info_mu_);
-    for (const v1::OutputModel& output : info_.outputs) {
-      *fitted.Add() = output.hyperparameters();
-    }
-  }
-  const std::string saved =
-      EncodeSavedHyperparameters(fitted, sample_count_ - model_->samples_since_fit());
+  const std::string saved = EncodeSavedFit(model_->hyperparameters(),
+                                           sample_count_ - model_->samples_since_fit());
   const Clock::time_point write_start = Clock::now();
   if (absl::Status s = store_->SaveModelState(id_, saved, model_version_); !s.ok()) {
     Log(LogLevel::kWarning,
@@ -496,10 +419,10 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
       "the fit: retry with a longer deadline"));
 }
 
-absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& request,
-                                                     Clock::time_point refit_deadline,
-                                                     Clock::time_point deadline,
-                                                     std::function<bool()> cancelled) {
+absl::StatusOr<Prediction> Session::Predict(const Eigen::MatrixXd& z, bool include_noise,
+                                            Clock::time_point refit_deadline,
+                                            Clock::time_point deadline,
+                                            std::function<bool()> cancelled) {
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
   if (absl::Status s = EnsureFitted(std::min(refit_deadline, deadline), cancelled);
@@ -507,17 +430,16 @@ absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& r
     return s;
   }
   const int dx = config_.state_dim();
-  const int z_dim = dx + config_.input_dim();
-  const Eigen::Index m = request.inputs_size() / z_dim;
+  const Eigen::Index m = z.rows();
   // Chunks of at most kPredictChunkEntries / n points: the cross-covariances of
   // one chunk (chunk x n per output) bound the call's memory, whatever m is.
   const Eigen::Index chunk = std::max<Eigen::Index>(
       1, kPredictChunkEntries / std::max<Eigen::Index>(1, sample_count_));
-  v1::PredictResponse response;
-  response.mutable_mean()->Reserve(static_cast<int>(m * dx));
-  response.mutable_variance()->Reserve(static_cast<int>(m * dx));
+  Prediction prediction;
+  prediction.mean.resize(m, dx);
+  prediction.variance.resize(m, dx);
   const Eigen::VectorXd noise =
-      request.include_noise() ? model_->noise_variances() : Eigen::VectorXd();
+      include_noise ? model_->noise_variances() : Eigen::VectorXd();
   try {
     for (Eigen::Index first = 0; first < m; first += chunk) {
       if (first > 0 && (Clock::now() >= deadline || (cancelled && cancelled()))) {
@@ -529,11 +451,9 @@ absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& r
             " points; ask for fewer points per call or allow more time"));
       }
       const Eigen::Index rows = std::min(chunk, m - first);
-      const Eigen::MatrixXd z = Eigen::Map<const RowMajorMatrix>(
-          request.inputs().data() + first * z_dim, rows, z_dim);
       Eigen::MatrixXd mean;
       Eigen::MatrixXd variance;
-      model_->Predict(z, &mean, &variance, nullptr, nullptr);
+      model_->Predict(z.middleRows(first, rows), &mean, &variance, nullptr, nullptr);
       if (mean.rows() != rows || mean.cols() != dx || variance.rows() != rows ||
           variance.cols() != dx) {
         return absl::InternalError(absl::StrCat(
@@ -544,19 +464,32 @@ absl::StatusOr<v1::PredictResponse> Session::Predict(const v1::PredictRequest& r
         return absl::InternalError(
             absl::StrCat("session ", name_, ": the model predicted non-finite numbers"));
       }
-      AppendRowMajor(mean, response.mutable_mean());
-      AppendRowMajor(variance, response.mutable_variance());
+      prediction.mean.middleRows(first, rows) = mean;
+      prediction.variance.middleRows(first, rows) = variance;
     }
   } catch (const std::exception& e) {
     return InternalFromException(absl::StrCat("Predict on ", name_), e);
   }
-  response.set_model_version(model_version_);
-  return response;
+  prediction.model_version = model_version_;
+  return prediction;
 }
 
-absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
-    const v1::PlanInputsRequest& request, Clock::time_point deadline,
-    std::function<bool()> cancelled) {
+absl::Status Session::CheckPlanShape(const plan::Plan& plan, bool model_free) const {
+  const Eigen::Index horizon = plan.inputs.rows();
+  const Eigen::Index predicted = model_free ? 0 : horizon;  // model-free: no predictions
+  if (horizon < 1 || plan.inputs.cols() != config_.input_dim() ||
+      plan.states.rows() != predicted || plan.variances.rows() != predicted ||
+      (predicted > 0 && (plan.states.cols() != config_.state_dim() ||
+                         plan.variances.cols() != config_.state_dim()))) {
+    return absl::InternalError(absl::StrCat("planning for session ", name_,
+                                            " returned a plan of the wrong shape"));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<PlanResult> Session::PlanInputs(const Eigen::VectorXd& state,
+                                               Clock::time_point deadline,
+                                               std::function<bool()> cancelled) {
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
   // prbs, chirp and random never evaluate the model: no data needed, no refit.
@@ -571,15 +504,13 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
     return absl::DeadlineExceededError(absl::StrCat(
         "PlanInputs on ", name_, ": the deadline passed before planning started"));
   }
-  const Eigen::VectorXd x0 =
-      Eigen::Map<const Eigen::VectorXd>(request.state().data(), request.state_size());
   plan::PlanLimits limits;
   limits.deadline = deadline;
   limits.cancelled = std::move(cancelled);
-  plan::PlanSummary summary;
+  PlanResult result;
   absl::StatusOr<plan::Plan> plan;
   try {
-    plan = planner_.PlanInputs(*model_, x0, sample_count_, limits, &summary);
+    plan = planner_.PlanInputs(*model_, state, sample_count_, limits, &result.summary);
   } catch (const std::exception& e) {
     plan = InternalFromException("planner", e);
   }
@@ -593,33 +524,17 @@ absl::StatusOr<v1::PlanInputsResponse> Session::PlanInputs(
     return absl::InternalError(absl::StrCat("planning for session ", name_,
                                             " failed: ", plan.status().ToString()));
   }
-  const int horizon = static_cast<int>(plan->inputs.rows());
-  const int predicted = model_free ? 0 : horizon;  // model-free: no predictions
-  if (horizon < 1 || plan->inputs.cols() != config_.input_dim() ||
-      plan->states.rows() != predicted || plan->variances.rows() != predicted ||
-      (predicted > 0 && (plan->states.cols() != config_.state_dim() ||
-                         plan->variances.cols() != config_.state_dim()))) {
-    return absl::InternalError(absl::StrCat("planning for session ", name_,
-                                            " returned a plan of the wrong shape"));
-  }
-  v1::PlanInputsResponse response;
-  AppendRowMajor(plan->inputs, response.mutable_inputs());
-  AppendRowMajor(plan->states, response.mutable_predicted_states());
-  AppendRowMajor(plan->variances, response.mutable_predicted_variances());
-  response.set_horizon(horizon);
-  response.set_apply_count(std::clamp(plan->apply_count, 1, horizon));
-  response.set_objective(summary.objective);
-  response.set_solver_status(ToProto(summary.status));
-  response.set_iterations(summary.iterations);
-  response.set_wall_time_ms(summary.wall_time_ms);
-  response.set_safe_box_violation(summary.safe_box_violation);
-  response.set_model_version(model_version_);
-  last_plan_ = response;
-  PublishInfo();
-  return response;
+  if (absl::Status s = CheckPlanShape(*plan, model_free); !s.ok()) return s;
+  result.plan = *std::move(plan);
+  result.plan.apply_count =
+      std::clamp(result.plan.apply_count, 1, static_cast<int>(result.plan.inputs.rows()));
+  result.model_version = model_version_;
+  last_plan_ = result;
+  PublishSnapshot();
+  return result;
 }
 
-absl::StatusOr<v1::SessionArchive> Session::Export() {
+absl::StatusOr<StoredSession> Session::Export() {
   absl::MutexLock lock(&mu_);
   if (deleted_) return NotDeleted(name_);  // a damaged session exports what is stored
   absl::StatusOr<store::SessionRecord> record = store_->LoadSession(id_);
@@ -632,7 +547,7 @@ absl::StatusOr<v1::SessionArchive> Session::Export() {
   absl::StatusOr<std::vector<store::SampleRecord>> samples =
       store_->LoadSamples(id_, damaged_.ok() ? nullptr : &unreadable);
   if (!samples.ok()) return samples.status();
-  return ArchiveFromStore(*record, *samples);
+  return StoredSession{*std::move(record), *std::move(samples)};
 }
 
 absl::Status Session::Delete() {

@@ -1,6 +1,7 @@
 #ifndef EXCITE_SERVER_SERVICE_SESSION_H_
 #define EXCITE_SERVER_SERVICE_SESSION_H_
 
+#include <Eigen/Dense>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -13,7 +14,6 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
-#include "excite/v1/exploration_service.pb.h"
 #include "excite/v1/session_config.pb.h"
 #include "server/gp/dynamics_model.h"
 #include "server/gp/refit_schedule.h"
@@ -21,16 +21,69 @@
 #include "server/service/memory_budget.h"
 #include "server/service/metrics.h"
 #include "server/service/session_labels.h"
-#include "server/store/sqlite_store.h"
+#include "server/store/session_store.h"
 #include "server/store/store_records.h"
 
 namespace excite::service {
 
-// One session: its validated config, GP dynamics model and planner.
+// What Session::AddSamples did: this batch's new and duplicate samples, and the
+// session after it.
+struct AddResult {
+  int64_t stored = 0;
+  int64_t duplicates = 0;
+  int64_t sample_count = 0;
+  int64_t model_version = 0;
+};
+
+// One Session::Predict: a row per point, a column per state dimension.
+struct Prediction {
+  Eigen::MatrixXd mean;
+  Eigen::MatrixXd variance;
+  int64_t model_version = 0;
+};
+
+// One Session::PlanInputs: the plan, the solver's summary and the model version
+// it was planned on.
+struct PlanResult {
+  plan::Plan plan;
+  plan::PlanSummary summary;
+  int64_t model_version = 0;
+};
+
+// One output's GP as Session::Snapshot reports it.
+struct OutputSnapshot {
+  gp::Hyperparameters hyperparameters;
+  // Absent after a restart until the first refit (the saved hyperparameters are
+  // reported, not yet evaluated).
+  std::optional<double> log_marginal_likelihood;
+  double prior_mean = 0.0;
+  int inducing_points = 0;  // 0 while the output is an exact GP
+};
+
+// What a session reports besides its config and metadata.
+struct SessionSnapshot {
+  int64_t sample_count = 0;
+  int64_t last_sequence = -1;  // -1: no sample yet
+  int64_t model_version = 0;
+  // Empty before the first fit of a new session (and in a damaged one).
+  std::vector<OutputSnapshot> outputs;
+  // The latest plan (for the live view); not stored.
+  std::optional<PlanResult> last_plan;
+};
+
+// A session as the store holds it: what ExportSession writes into an archive.
+struct StoredSession {
+  store::SessionRecord record;
+  std::vector<store::SampleRecord> samples;  // in sequence order
+};
+
+// One session: its validated config, GP dynamics model and planner. It speaks in
+// engine types (Eigen, store records, plan summaries); the service translates
+// the wire's messages and its status codes.
 //
 // Thread-safety: all methods are thread-safe. Calls that touch the model
-// (AddTransitions, Predict, PlanInputs, Delete) are serialised per session;
-// different sessions run in parallel. Describe() never waits for them: it reads
+// (AddSamples, Predict, PlanInputs, Export, Delete) are serialised per session;
+// different sessions run in parallel. Snapshot() never waits for them: it reads
 // a summary refreshed at the end of each call.
 //
 // Refit is lazy: Predict/PlanInputs (PlanInputs only for the strategies that use
@@ -58,30 +111,31 @@ class Session {
   static absl::StatusOr<std::shared_ptr<Session>> Create(std::string id,
                                                          v1::SessionConfig config,
                                                          Metadata metadata,
-                                                         store::SqliteStore* store);
+                                                         store::SessionStore* store);
 
   // A session rebuilt from the store: its record and all its samples (in any
   // order). The GP gets every sample; it is fitted lazily at first use. With
   // refit.never the saved hyperparameters are reused as fixed ones, so a restart
   // does not change them; otherwise (kernel.fit) they seed the warm start of
-  // the first refit and Describe() reports them (without a log marginal
+  // the first refit and Snapshot() reports them (without a log marginal
   // likelihood) until it ran. model_version resumes at a value no lower than any
   // served before the restart (saved version + sample count). Samples of the
   // wrong shape, or ones the model cannot take (stored by an older version), do
-  // not fail the restore: the session is set aside as damaged (logged; AddData,
-  // Predict and PlanInputs answer DATA_LOSS; Describe, Export and Delete work),
+  // not fail the restore: the session is set aside as damaged (logged; AddSamples,
+  // Predict and PlanInputs answer DATA_LOSS; Snapshot, Export and Delete work),
   // so one bad session never keeps the server from serving the others.
   // `unreadable` not OK (DATA_LOSS saying which rows the caller could not read
   // from the store), or a stored config that does not parse, also sets the
   // session aside; `samples` are then the rows that could be read.
   static absl::StatusOr<std::shared_ptr<Session>> Restore(
       const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
-      store::SqliteStore* store, absl::Status unreadable = absl::OkStatus());
+      store::SessionStore* store, absl::Status unreadable = absl::OkStatus());
 
   const std::string& id() const { return id_; }
   // "sessions/{id}".
   const std::string& name() const { return name_; }
   const v1::SessionConfig& config() const { return config_; }
+  const Metadata& metadata() const { return metadata_; }
   const Labels& labels() const { return metadata_.labels; }
 
   // Where refit and store-write timings go (nullptr: nowhere, the default). Call
@@ -89,7 +143,7 @@ class Session {
   void AttachMetrics(Metrics* metrics) { metrics_ = metrics; }
 
   // Counts this session's estimated memory in `budget` from now on (nullptr: no
-  // budget); the caller has already taken `reserved` bytes of it. AddTransitions
+  // budget); the caller has already taken `reserved` bytes of it. AddSamples
   // then takes what more samples need before storing them, Delete gives it all
   // back. Call before the session is shared; `budget` must outlive it.
   void AttachMemoryBudget(MemoryBudget* budget, int64_t reserved);
@@ -101,72 +155,61 @@ class Session {
   // else OK. Never waits for a call in progress.
   absl::Status Damage() const;
 
-  // name, config, sample_count, last_sequence, model_version and (when fitted,
-  // or restored with saved hyperparameters) outputs.
-  v1::Session Describe() const;
+  // Sample count, last sequence, model version, outputs and the latest plan.
+  SessionSnapshot Snapshot() const;
 
-  // One AddData message (validated with ValidateTransitions): checks that the
-  // model can take it (INVALID_ARGUMENT, nothing stored, if not), stores it
-  // durably (one transaction), then adds the newly stored transitions to the GP. The
-  // response counts this message only. NOT_FOUND if the session was deleted,
-  // RESOURCE_EXHAUSTED (nothing stored) if the session would exceed `max_samples`
-  // or the memory budget.
-  absl::StatusOr<v1::AddDataResponse> AddTransitions(
-      const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
-      int64_t max_samples);
+  // One batch of measured transitions (shapes and values already validated):
+  // checks that the model can take it (INVALID_ARGUMENT naming "transitions",
+  // nothing stored, if not), stores it durably (one transaction), then adds the
+  // newly stored samples to the GP. The result counts this batch only. NOT_FOUND
+  // if the session was deleted, RESOURCE_EXHAUSTED (nothing stored) if the
+  // session would exceed `max_samples` or the memory budget.
+  absl::StatusOr<AddResult> AddSamples(const std::vector<store::SampleRecord>& batch,
+                                       int64_t max_samples);
 
-  // Mean and latent (+ noise if asked) variance at each z. Inputs must have been
-  // checked with ValidatePredictInputs. FAILED_PRECONDITION before
-  // refit.min_samples samples; DEADLINE_EXCEEDED or CANCELLED if a due refit was
-  // stopped by min(`refit_deadline`, `deadline`) or `cancelled`, or if
+  // Mean and latent (+ noise if `include_noise`) variance at each row of `z`
+  // (points x (state_dim + input_dim), checked by the caller). FAILED_PRECONDITION
+  // before refit.min_samples samples; DEADLINE_EXCEEDED or CANCELLED if a due
+  // refit was stopped by min(`refit_deadline`, `deadline`) or `cancelled`, or if
   // `deadline` passed or `cancelled` fired between two chunks of points (each
   // at most 2^21 / n points, which bounds the call's memory).
-  absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request,
-                                              Clock::time_point refit_deadline,
-                                              Clock::time_point deadline,
-                                              std::function<bool()> cancelled);
+  absl::StatusOr<Prediction> Predict(const Eigen::MatrixXd& z, bool include_noise,
+                                     Clock::time_point refit_deadline,
+                                     Clock::time_point deadline,
+                                     std::function<bool()> cancelled);
 
-  // Plans from `state` (checked with ValidatePlanState) within `deadline`,
-  // polling `cancelled`. DEADLINE_EXCEEDED if the deadline passed before a plan
-  // existed, CANCELLED if cancelled, FAILED_PRECONDITION before
+  // Plans from `state` (state_dim entries, checked by the caller) within
+  // `deadline`, polling `cancelled`. DEADLINE_EXCEEDED if the deadline passed
+  // before a plan existed, CANCELLED if cancelled, FAILED_PRECONDITION before
   // refit.min_samples samples. The model-free strategies (prbs, chirp, random)
   // neither need data nor refit: they return the next `horizon` samples of their
   // signal, starting at time index = the number of samples the session holds, and
-  // no predicted states or variances.
-  absl::StatusOr<v1::PlanInputsResponse> PlanInputs(const v1::PlanInputsRequest& request,
-                                                    Clock::time_point deadline,
-                                                    std::function<bool()> cancelled);
+  // no predicted states or variances. The plan's shape is checked (INTERNAL if
+  // wrong) and its apply_count clamped to [1, horizon].
+  absl::StatusOr<PlanResult> PlanInputs(const Eigen::VectorXd& state,
+                                        Clock::time_point deadline,
+                                        std::function<bool()> cancelled);
 
-  // The session as a SessionArchive: config, every sample in sequence order and
-  // the saved hyperparameters, read from the store (so exactly what a restart
-  // would restore) while no other call changes the session. NOT_FOUND if
+  // The session's record and every sample in sequence order, read from the store
+  // (so exactly what a restart would restore) while no other call changes the
+  // session; a damaged session gives the rows that can be read. NOT_FOUND if
   // deleted. Cost: O(samples) reads.
-  absl::StatusOr<v1::SessionArchive> Export();
+  absl::StatusOr<StoredSession> Export();
 
   // Marks the session deleted (later calls on it return NOT_FOUND) and removes it
   // and its samples from the store. NOT_FOUND if already deleted.
   absl::Status Delete();
 
  private:
-  // What Describe() reports, refreshed under mu_ and read under info_mu_.
-  struct Info {
-    int64_t sample_count = 0;
-    int64_t last_sequence = -1;
-    int64_t model_version = 0;
-    std::vector<v1::OutputModel> outputs;
-    absl::Status damage;
-    std::optional<v1::PlanInputsResponse> last_plan;
-  };
-
   Session(std::string id, v1::SessionConfig config, Metadata metadata,
-          std::optional<gp::DynamicsModel> model, store::SqliteStore* store);
+          std::optional<gp::DynamicsModel> model, store::SessionStore* store);
   static Metadata MetadataOf(const store::SessionRecord& record);
   // A damaged session (see Restore): no model, every model call answers `damage`
   // as DATA_LOSS.
   static std::shared_ptr<Session> SetAside(
       const store::SessionRecord& record, v1::SessionConfig config,
       const std::vector<store::SampleRecord>& samples, absl::Status damage,
-      store::SqliteStore* store);
+      store::SessionStore* store);
 
   absl::Status CheckUsable() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // INVALID_ARGUMENT unless the model can add `batch` (GP DynamicsModel::
@@ -179,15 +222,17 @@ class Session {
   absl::Status EnsureFitted(Clock::time_point deadline,
                             const std::function<bool()>& cancelled)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  void PublishInfo() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  // Gives back what AddTransitions reserved beyond EstimatedBytes(sample_count_).
+  // INTERNAL unless `plan` has the shape of this session's plans.
+  absl::Status CheckPlanShape(const plan::Plan& plan, bool model_free) const;
+  void PublishSnapshot() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Gives back what AddSamples reserved beyond EstimatedBytes(sample_count_).
   void SettleBudget() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   const std::string id_;
   const std::string name_;
   const v1::SessionConfig config_;
   const Metadata metadata_;
-  store::SqliteStore* const store_;
+  store::SessionStore* const store_;
   Metrics* metrics_ = nullptr;
   MemoryBudget* budget_ = nullptr;
 
@@ -199,16 +244,17 @@ class Session {
   int64_t last_sequence_ ABSL_GUARDED_BY(mu_) = -1;
   int64_t model_version_ ABSL_GUARDED_BY(mu_) = 0;
   bool deleted_ ABSL_GUARDED_BY(mu_) = false;
-  // Describe() reports it (for the live view); not stored.
-  std::optional<v1::PlanInputsResponse> last_plan_ ABSL_GUARDED_BY(mu_);
+  // Snapshot() reports it (for the live view); not stored.
+  std::optional<PlanResult> last_plan_ ABSL_GUARDED_BY(mu_);
   // Bytes of budget_ this session holds: EstimatedBytes(sample_count_).
   int64_t reserved_bytes_ ABSL_GUARDED_BY(mu_) = 0;
   // DATA_LOSS if restored from samples the model cannot use: every call but
-  // Describe, Export and Delete returns it.
+  // Snapshot, Export and Delete returns it.
   absl::Status damaged_ ABSL_GUARDED_BY(mu_);
 
-  mutable absl::Mutex info_mu_ ABSL_ACQUIRED_AFTER(mu_);
-  Info info_ ABSL_GUARDED_BY(info_mu_);
+  mutable absl::Mutex snapshot_mu_ ABSL_ACQUIRED_AFTER(mu_);
+  SessionSnapshot snapshot_ ABSL_GUARDED_BY(snapshot_mu_);
+  absl::Status damage_ ABSL_GUARDED_BY(snapshot_mu_);  // damaged_, readable without mu_
 };
 
 }  // namespace excite::service

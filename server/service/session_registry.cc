@@ -39,12 +39,12 @@ absl::StatusOr<std::string> DecodeToken(const std::string& token) {
 
 }  // namespace
 
-SessionRegistry::SessionRegistry(store::SqliteStore* store, int64_t max_sessions,
+SessionRegistry::SessionRegistry(store::SessionStore* store, int64_t max_sessions,
                                  Metrics* metrics, MemoryBudget* budget)
     : store_(store), max_sessions_(max_sessions), metrics_(metrics), budget_(budget) {}
 
 absl::StatusOr<std::unique_ptr<SessionRegistry>> SessionRegistry::Load(
-    store::SqliteStore* store, int64_t max_sessions, Metrics* metrics,
+    store::SessionStore* store, int64_t max_sessions, Metrics* metrics,
     MemoryBudget* budget) {
   std::unique_ptr<SessionRegistry> registry(
       new SessionRegistry(store, max_sessions, metrics, budget));

@@ -16,7 +16,7 @@
 #include "excite/v1/session_config.pb.h"
 #include "server/service/memory_budget.h"
 #include "server/service/session.h"
-#include "server/store/sqlite_store.h"
+#include "server/store/session_store.h"
 
 namespace excite::service {
 
@@ -30,7 +30,7 @@ class SessionRegistry {
   // recorded) and `budget` (nullable: no memory budget) must outlive the
   // registry. Restored sessions count in the budget even beyond it.
   static absl::StatusOr<std::unique_ptr<SessionRegistry>> Load(
-      store::SqliteStore* store, int64_t max_sessions, Metrics* metrics = nullptr,
+      store::SessionStore* store, int64_t max_sessions, Metrics* metrics = nullptr,
       MemoryBudget* budget = nullptr);
 
   // Creates and stores a session, created now. `session_id` empty: a fresh id is
@@ -72,7 +72,7 @@ class SessionRegistry {
   int64_t size() const;
 
  private:
-  SessionRegistry(store::SqliteStore* store, int64_t max_sessions, Metrics* metrics,
+  SessionRegistry(store::SessionStore* store, int64_t max_sessions, Metrics* metrics,
                   MemoryBudget* budget);
   // budget_->Reserve, or OK without a budget.
   absl::Status Reserve(int64_t bytes, absl::string_view what);
@@ -82,7 +82,7 @@ class SessionRegistry {
   absl::StatusOr<std::string> NewSessionId(const std::string& session_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
-  store::SqliteStore* const store_;
+  store::SessionStore* const store_;
   const int64_t max_sessions_;
   Metrics* const metrics_;
   MemoryBudget* const budget_;

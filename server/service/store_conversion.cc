@@ -1,5 +1,7 @@
 #include "server/service/store_conversion.h"
 
+#include "server/service/session_options.h"
+
 namespace excite::service {
 
 store::SampleRecord ToSampleRecord(const v1::Transition& transition) {
@@ -43,6 +45,29 @@ std::optional<SavedFit> DecodeSavedHyperparameters(const std::string& bytes) {
   result.hyperparameters.reserve(static_cast<size_t>(saved.outputs_size()));
   for (const v1::OutputModel& output : saved.outputs()) {
     result.hyperparameters.push_back(output.hyperparameters());
+  }
+  return result;
+}
+
+std::string EncodeSavedFit(const std::vector<gp::Hyperparameters>& hyperparameters,
+                           int64_t fitted_samples) {
+  google::protobuf::RepeatedPtrField<v1::Hyperparameters> protos;
+  for (const gp::Hyperparameters& h : hyperparameters) *protos.Add() = ToProto(h);
+  return EncodeSavedHyperparameters(protos, fitted_samples);
+}
+
+std::optional<EngineFit> DecodeSavedFit(const std::string& bytes, int state_dim,
+                                        int z_dim) {
+  std::optional<SavedFit> saved = DecodeSavedHyperparameters(bytes);
+  if (!saved.has_value() || saved->hyperparameters.empty() ||
+      static_cast<int>(saved->hyperparameters.size()) != state_dim) {
+    return std::nullopt;
+  }
+  EngineFit result;
+  result.fitted_samples = saved->fitted_samples;
+  for (const v1::Hyperparameters& h : saved->hyperparameters) {
+    if (h.lengthscales_size() != z_dim) return std::nullopt;
+    result.hyperparameters.push_back(FromProto(h));
   }
   return result;
 }

@@ -8,6 +8,7 @@
 #include "excite/v1/exploration_service.pb.h"
 #include "excite/v1/session_config.pb.h"
 #include "google/protobuf/repeated_field.h"
+#include "server/gp/hyperparameters.h"
 #include "server/store/store_records.h"
 
 namespace excite::service {
@@ -32,6 +33,18 @@ std::string EncodeSavedHyperparameters(
 // nullopt if `bytes` do not parse. Empty bytes (never fitted) give no
 // hyperparameters.
 std::optional<SavedFit> DecodeSavedHyperparameters(const std::string& bytes);
+
+// The same bytes in engine types (data units), for the sessions.
+struct EngineFit {
+  std::vector<gp::Hyperparameters> hyperparameters;  // one per output
+  int64_t fitted_samples = 0;
+};
+std::string EncodeSavedFit(const std::vector<gp::Hyperparameters>& hyperparameters,
+                           int64_t fitted_samples);
+// nullopt if `bytes` are empty, do not parse, or do not hold `state_dim` outputs
+// of `z_dim` lengthscales each.
+std::optional<EngineFit> DecodeSavedFit(const std::string& bytes, int state_dim,
+                                        int z_dim);
 
 }  // namespace excite::service
 

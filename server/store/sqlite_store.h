@@ -11,13 +11,14 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
+#include "server/store/session_store.h"
 #include "server/store/store_records.h"
 
 struct sqlite3;
 
 namespace excite::store {
 
-// The durable store of sessions and their samples: one SQLite database
+// The embedded SessionStore: one SQLite database
 // `<data_dir>/excite.db` in WAL mode with synchronous=FULL, so every method that
 // writes returns only after its transaction is committed to disk.
 //
@@ -29,7 +30,7 @@ namespace excite::store {
 //
 // Thread-safe: one connection behind a mutex (writes are serialised anyway by
 // SQLite). Every SQLite error becomes an absl::Status carrying SQLite's message.
-class SqliteStore {
+class SqliteStore final : public SessionStore {
  public:
   // The schema version this build reads and writes.
   // Version 1 (before display names and labels) is migrated in place at Open.
@@ -44,46 +45,29 @@ class SqliteStore {
   // umask.
   static absl::StatusOr<std::unique_ptr<SqliteStore>> Open(const std::string& data_dir);
 
-  ~SqliteStore();
+  ~SqliteStore() override;
   SqliteStore(const SqliteStore&) = delete;
   SqliteStore& operator=(const SqliteStore&) = delete;
 
   // Path of the database file.
   const std::string& path() const { return path_; }
+  std::string location() const override { return path_; }
 
-  // ALREADY_EXISTS if a session with this id is stored.
-  absl::Status CreateSession(const SessionRecord& session);
-  // Removes the session and all its samples in one transaction. NOT_FOUND if
-  // there is no such session.
-  absl::Status DeleteSession(const std::string& id);
-  // All sessions in id order.
-  absl::StatusOr<std::vector<SessionRecord>> LoadSessions();
-  // One session's record. NOT_FOUND if there is no such session.
-  absl::StatusOr<SessionRecord> LoadSession(const std::string& id);
-  // All samples of one session in sequence order. A row whose blobs cannot be
-  // decoded is DATA_LOSS, or, with `unreadable`, left out and its sequence
-  // number appended there.
+  // SessionStore. InsertSamples uses INSERT OR IGNORE; it and ImportSession cost
+  // O(rows) inserts plus one fsync.
+  absl::Status CreateSession(const SessionRecord& session) override;
+  absl::Status DeleteSession(const std::string& id) override;
+  absl::StatusOr<std::vector<SessionRecord>> LoadSessions() override;
+  absl::StatusOr<SessionRecord> LoadSession(const std::string& id) override;
   absl::StatusOr<std::vector<SampleRecord>> LoadSamples(
-      const std::string& session_id, std::vector<int64_t>* unreadable = nullptr);
-
-  // Stores `batch` in ONE transaction with INSERT OR IGNORE: a sample whose
-  // sequence number is already stored for this session is a duplicate and is not
-  // written again. Returns after COMMIT. NOT_FOUND if the session does not exist
-  // (nothing is written then). Cost: O(batch) row inserts plus one fsync.
-  absl::StatusOr<InsertResult> InsertSamples(const std::string& session_id,
-                                             const std::vector<SampleRecord>& batch);
-
-  // Stores a whole session (record, including its hyperparameters and model
-  // version, and every sample) in ONE transaction: all or nothing. ALREADY_EXISTS
-  // if the id is taken; any error (e.g. two samples with one sequence number)
-  // rolls everything back. Cost: O(samples) row inserts plus one fsync.
+      const std::string& session_id, std::vector<int64_t>* unreadable = nullptr) override;
+  absl::StatusOr<InsertResult> InsertSamples(
+      const std::string& session_id, const std::vector<SampleRecord>& batch) override;
   absl::Status ImportSession(const SessionRecord& session,
-                             const std::vector<SampleRecord>& samples);
-
-  // Saves the last fitted hyperparameters (opaque bytes) and the model version
-  // they belong to. NOT_FOUND if the session does not exist.
+                             const std::vector<SampleRecord>& samples) override;
   absl::Status SaveModelState(const std::string& session_id,
-                              const std::string& hyperparameters, int64_t model_version);
+                              const std::string& hyperparameters,
+                              int64_t model_version) override;
 
  private:
   SqliteStore(sqlite3* db, std::string path, int lock_fd);

@@ -30,7 +30,7 @@
 namespace excite::service {
 namespace {
 
-// Validated transitions through the model, as Session::AddTransitions and a
+// Validated transitions through the model, as Session::AddSamples and a
 // lazy refit would.
 void ModelTakes(const v1::SessionConfig& config,
                 const google::protobuf::RepeatedPtrField<v1::Transition>& transitions) {

@@ -1,0 +1,88 @@
+#include "server/service/session_proto.h"
+
+#include "google/protobuf/util/time_util.h"
+#include "server/service/session_options.h"
+
+namespace excite::service {
+namespace {
+
+using RowMajorMatrix =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+v1::SolverStatus ToProto(plan::PlanStatus status) {
+  switch (status) {
+    case plan::PlanStatus::kConverged:
+      return v1::SOLVER_STATUS_CONVERGED;
+    case plan::PlanStatus::kTimeLimit:
+      return v1::SOLVER_STATUS_TIME_LIMIT;
+    case plan::PlanStatus::kIterationLimit:
+      return v1::SOLVER_STATUS_ITERATION_LIMIT;
+    case plan::PlanStatus::kNotConverged:
+      return v1::SOLVER_STATUS_NOT_CONVERGED;
+  }
+  return v1::SOLVER_STATUS_UNSPECIFIED;
+}
+
+}  // namespace
+
+void AppendRowMajor(const Eigen::MatrixXd& matrix,
+                    google::protobuf::RepeatedField<double>* out) {
+  out->Reserve(out->size() + static_cast<int>(matrix.size()));
+  for (Eigen::Index i = 0; i < matrix.rows(); ++i) {
+    for (Eigen::Index j = 0; j < matrix.cols(); ++j) out->Add(matrix(i, j));
+  }
+}
+
+Eigen::MatrixXd RowMajorToMatrix(const google::protobuf::RepeatedField<double>& values,
+                                 Eigen::Index rows, Eigen::Index cols) {
+  return Eigen::Map<const RowMajorMatrix>(values.data(), rows, cols);
+}
+
+v1::PlanInputsResponse PlanToProto(const PlanResult& result) {
+  v1::PlanInputsResponse response;
+  AppendRowMajor(result.plan.inputs, response.mutable_inputs());
+  AppendRowMajor(result.plan.states, response.mutable_predicted_states());
+  AppendRowMajor(result.plan.variances, response.mutable_predicted_variances());
+  response.set_horizon(static_cast<int32_t>(result.plan.inputs.rows()));
+  response.set_apply_count(result.plan.apply_count);
+  response.set_objective(result.summary.objective);
+  response.set_solver_status(ToProto(result.summary.status));
+  response.set_iterations(result.summary.iterations);
+  response.set_wall_time_ms(result.summary.wall_time_ms);
+  response.set_safe_box_violation(result.summary.safe_box_violation);
+  response.set_model_version(result.model_version);
+  return response;
+}
+
+v1::Session SessionToProto(const Session& session) {
+  v1::Session proto;
+  proto.set_name(session.name());
+  *proto.mutable_config() = session.config();
+  const Session::Metadata& metadata = session.metadata();
+  proto.set_display_name(metadata.display_name);
+  proto.mutable_labels()->insert(metadata.labels.begin(), metadata.labels.end());
+  if (metadata.created_unix_ms > 0) {
+    *proto.mutable_create_time() =
+        google::protobuf::util::TimeUtil::MillisecondsToTimestamp(
+            metadata.created_unix_ms);
+  }
+  const SessionSnapshot snapshot = session.Snapshot();
+  proto.set_sample_count(snapshot.sample_count);
+  proto.set_last_sequence(snapshot.last_sequence);
+  proto.set_model_version(snapshot.model_version);
+  for (const OutputSnapshot& output : snapshot.outputs) {
+    v1::OutputModel* out = proto.add_outputs();
+    *out->mutable_hyperparameters() = ToProto(output.hyperparameters);
+    if (output.log_marginal_likelihood.has_value()) {
+      out->set_log_marginal_likelihood(*output.log_marginal_likelihood);
+    }
+    out->set_prior_mean(output.prior_mean);
+    out->set_inducing_points(output.inducing_points);
+  }
+  if (snapshot.last_plan.has_value()) {
+    *proto.mutable_last_plan() = PlanToProto(*snapshot.last_plan);
+  }
+  return proto;
+}
+
+}  // namespace excite::service
