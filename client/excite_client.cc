@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <thread>
 #include <utility>
 
 #include "absl/status/status.h"
@@ -25,6 +26,16 @@ absl::Status WithSizeHint(const absl::Status& status, absl::string_view hint) {
     return status;
   }
   return absl::Status(status.code(), absl::StrCat(status.message(), " (", hint, ")"));
+}
+
+template <typename T>
+const absl::Status& StatusOf(const absl::StatusOr<T>& result) {
+  return result.status();
+}
+
+// "sessions/{id}" of a request that names an id ("" if it does not).
+std::string NameOfId(const std::string& id) {
+  return id.empty() ? std::string() : absl::StrCat("sessions/", id);
 }
 
 absl::Status FromGrpc(const grpc::Status& status) {
@@ -73,10 +84,26 @@ absl::StatusOr<std::string> LoadAuthToken(const std::string& token_file) {
 }
 
 void ExciteClient::Prepare(grpc::ClientContext* context,
-                           std::chrono::milliseconds timeout) const {
+                           std::chrono::milliseconds timeout,
+                           const std::string& session) const {
   context->set_deadline(std::chrono::system_clock::now() + timeout);
   if (!options_.auth_token.empty()) {
     context->AddMetadata("authorization", "Bearer " + options_.auth_token);
+  }
+  if (!session.empty()) context->AddMetadata(kSessionHeader, session);
+}
+
+template <typename Attempt>
+auto ExciteClient::Retrying(Attempt&& attempt) const -> decltype(attempt()) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point give_up = Clock::now() + options_.retry_unavailable;
+  std::chrono::milliseconds backoff(50);
+  while (true) {
+    auto result = attempt();
+    const absl::Status& status = StatusOf(result);
+    if (!absl::IsUnavailable(status) || Clock::now() + backoff >= give_up) return result;
+    std::this_thread::sleep_for(backoff);
+    backoff = std::min<std::chrono::milliseconds>(backoff * 2, std::chrono::seconds(2));
   }
 }
 
@@ -124,80 +151,63 @@ absl::StatusOr<v1::Session> ExciteClient::CreateSession(const v1::SessionConfig&
 
 absl::StatusOr<v1::Session> ExciteClient::CreateSession(
     const v1::CreateSessionRequest& request) {
-  grpc::ClientContext context;
-  Prepare(&context, options_.default_deadline);
-  v1::Session response;
-  if (absl::Status s = FromGrpc(stub_->CreateSession(&context, request, &response));
-      !s.ok()) {
-    return s;
-  }
-  return response;
+  return Unary(&v1::ExplorationService::Stub::CreateSession, request,
+               NameOfId(request.session_id()), options_.default_deadline);
 }
 
 absl::StatusOr<v1::Session> ExciteClient::GetSession(const std::string& name) {
-  grpc::ClientContext context;
-  Prepare(&context, options_.default_deadline);
   v1::GetSessionRequest request;
   request.set_name(name);
-  v1::Session response;
-  if (absl::Status s = FromGrpc(stub_->GetSession(&context, request, &response));
-      !s.ok()) {
-    return s;
-  }
-  return response;
+  return Unary(&v1::ExplorationService::Stub::GetSession, request, name,
+               options_.default_deadline);
 }
 
 absl::StatusOr<v1::ListSessionsResponse> ExciteClient::ListSessions(
     int page_size, const std::string& page_token, const std::string& filter) {
-  grpc::ClientContext context;
-  Prepare(&context, options_.default_deadline);
   v1::ListSessionsRequest request;
   request.set_page_size(page_size);
   request.set_page_token(page_token);
   request.set_filter(filter);
-  v1::ListSessionsResponse response;
-  if (absl::Status s = FromGrpc(stub_->ListSessions(&context, request, &response));
-      !s.ok()) {
-    return s;
-  }
-  return response;
+  return Unary(&v1::ExplorationService::Stub::ListSessions, request, "",
+               options_.default_deadline);
 }
 
 absl::Status ExciteClient::DeleteSession(const std::string& name) {
-  grpc::ClientContext context;
-  Prepare(&context, options_.default_deadline);
   v1::DeleteSessionRequest request;
   request.set_name(name);
-  v1::DeleteSessionResponse response;
-  return FromGrpc(stub_->DeleteSession(&context, request, &response));
+  return Unary(&v1::ExplorationService::Stub::DeleteSession, request, name,
+               options_.default_deadline)
+      .status();
 }
 
 absl::StatusOr<v1::AddDataResponse> ExciteClient::AddData(
     const std::string& session, const std::vector<std::vector<v1::Transition>>& batches) {
-  grpc::ClientContext context;
-  Prepare(&context, options_.default_deadline);
-  v1::AddDataResponse response;
-  std::unique_ptr<grpc::ClientWriter<v1::AddDataRequest>> writer =
-      stub_->AddData(&context, &response);
-  for (size_t i = 0; i < batches.size(); ++i) {
-    v1::AddDataRequest request;
-    request.set_session(session);
-    request.mutable_transitions()->Reserve(static_cast<int>(batches[i].size()));
-    for (const v1::Transition& t : batches[i]) *request.add_transitions() = t;
-    // A failed write means the stream is closed (the server answered early with
-    // an error): Finish() below carries the reason.
-    if (!writer->Write(request)) break;
-  }
-  writer->WritesDone();
-  if (absl::Status s = FromGrpc(writer->Finish()); !s.ok()) return s;
-  return response;
+  return Retrying([&]() -> absl::StatusOr<v1::AddDataResponse> {
+    grpc::ClientContext context;
+    Prepare(&context, options_.default_deadline, session);
+    v1::AddDataResponse response;
+    std::unique_ptr<grpc::ClientWriter<v1::AddDataRequest>> writer =
+        stub_->AddData(&context, &response);
+    for (size_t i = 0; i < batches.size(); ++i) {
+      v1::AddDataRequest request;
+      request.set_session(session);
+      request.mutable_transitions()->Reserve(static_cast<int>(batches[i].size()));
+      for (const v1::Transition& t : batches[i]) *request.add_transitions() = t;
+      // A failed write means the stream is closed (the server answered early
+      // with an error): Finish() below carries the reason.
+      if (!writer->Write(request)) break;
+    }
+    writer->WritesDone();
+    if (absl::Status s = FromGrpc(writer->Finish()); !s.ok()) return s;
+    return response;
+  });
 }
 
 std::unique_ptr<DataStream> ExciteClient::OpenDataStream(
     const std::string& session, std::chrono::milliseconds deadline) {
   std::unique_ptr<DataStream> stream(new DataStream());
   stream->session_ = session;
-  Prepare(&stream->context_, deadline);
+  Prepare(&stream->context_, deadline, session);
   stream->stream_ = stub_->StreamData(&stream->context_);
   return stream;
 }
@@ -240,50 +250,43 @@ absl::Status DataStream::Close() {
 
 absl::StatusOr<v1::PredictResponse> ExciteClient::Predict(
     const v1::PredictRequest& request) {
-  grpc::ClientContext context;
-  Prepare(&context, options_.default_deadline);
-  v1::PredictResponse response;
-  if (absl::Status s = FromGrpc(stub_->Predict(&context, request, &response)); !s.ok()) {
-    return s;
-  }
-  return response;
+  return Unary(&v1::ExplorationService::Stub::Predict, request, request.session(),
+               options_.default_deadline);
 }
 
 absl::StatusOr<v1::PlanInputsResponse> ExciteClient::PlanInputs(
     const std::string& session, const std::vector<double>& state) {
-  grpc::ClientContext context;
-  Prepare(&context, options_.plan_deadline);
   v1::PlanInputsRequest request;
   request.set_session(session);
   for (double x : state) request.add_state(x);
-  v1::PlanInputsResponse response;
-  if (absl::Status s = FromGrpc(stub_->PlanInputs(&context, request, &response));
-      !s.ok()) {
-    return s;
-  }
-  return response;
+  return Unary(&v1::ExplorationService::Stub::PlanInputs, request, session,
+               options_.plan_deadline);
 }
 
 template <typename Request, typename Response>
 absl::StatusOr<Response> ExciteClient::Unary(
     grpc::Status (v1::ExplorationService::Stub::*method)(grpc::ClientContext*,
                                                          const Request&, Response*),
-    const Request& request) {
-  grpc::ClientContext context;
-  Prepare(&context, options_.default_deadline);
-  Response response;
-  if (absl::Status s = FromGrpc((stub_.get()->*method)(&context, request, &response));
-      !s.ok()) {
-    return s;
-  }
-  return response;
+    const Request& request, const std::string& session,
+    std::chrono::milliseconds timeout) {
+  return Retrying([&]() -> absl::StatusOr<Response> {
+    grpc::ClientContext context;
+    Prepare(&context, timeout, session);
+    Response response;
+    if (absl::Status s = FromGrpc((stub_.get()->*method)(&context, request, &response));
+        !s.ok()) {
+      return s;
+    }
+    return response;
+  });
 }
 
 absl::StatusOr<v1::SessionArchive> ExciteClient::ExportSession(const std::string& name) {
   v1::ExportSessionRequest request;
   request.set_name(name);
   absl::StatusOr<v1::SessionArchive> archive =
-      Unary(&v1::ExplorationService::Stub::ExportSession, request);
+      Unary(&v1::ExplorationService::Stub::ExportSession, request, name,
+            options_.default_deadline);
   if (!archive.ok()) {
     return WithSizeHint(archive.status(),
                         absl::StrCat("the archive is larger than this client's message "
@@ -299,7 +302,9 @@ absl::StatusOr<v1::Session> ExciteClient::ImportSession(const v1::SessionArchive
   *request.mutable_archive() = archive;
   request.set_session_id(session_id);
   absl::StatusOr<v1::Session> session =
-      Unary(&v1::ExplorationService::Stub::ImportSession, request);
+      Unary(&v1::ExplorationService::Stub::ImportSession, request,
+            NameOfId(session_id.empty() ? archive.session_id() : session_id),
+            options_.default_deadline);
   if (!session.ok()) {
     return WithSizeHint(
         session.status(),

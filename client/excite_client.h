@@ -27,7 +27,20 @@ struct ClientOptions {
   // --max_message_mb). ExportSession / ImportSession of a big session may need
   // more here and on the server.
   int max_message_mb = 64;
+  // Calls that fail with UNAVAILABLE (no server reachable, a replica draining or
+  // dead, a session moving to another replica) are retried, with backoff from
+  // 50 ms to 2 s, until this much time has passed since the first attempt; 0:
+  // never. Safe for AddData (sequence numbers make a resent batch a
+  // duplicate); a CreateSession without an id that failed after the server
+  // stored it leaves an unused session behind. DataStream is not retried.
+  std::chrono::milliseconds retry_unavailable{0};
 };
+
+// The request header naming the session a call is about
+// ("x-excite-session: sessions/{id}"). Every session call of this client (and of
+// the Python client) carries it, so that a proxy in front of several replicas
+// can route all calls of a session to one replica (deploy/haproxy).
+inline constexpr char kSessionHeader[] = "x-excite-session";
 
 // Reads the client's auth token: the file `token_file` if non-empty (whitespace
 // stripped), else $EXCITE_AUTH_TOKEN, else "". INVALID_ARGUMENT if the file
@@ -112,13 +125,19 @@ class ExciteClient {
 
  private:
   ExciteClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options);
-  // Deadline and the authorization metadata.
-  void Prepare(grpc::ClientContext* context, std::chrono::milliseconds timeout) const;
-  // One unary call of `method` with the default deadline.
+  // Deadline, the authorization metadata and, unless empty, the session header.
+  void Prepare(grpc::ClientContext* context, std::chrono::milliseconds timeout,
+               const std::string& session) const;
+  // `attempt` (one call, returning absl::Status or StatusOr), retried as
+  // options_.retry_unavailable says.
+  template <typename Attempt>
+  auto Retrying(Attempt&& attempt) const -> decltype(attempt());
+  // One unary call of `method` about `session` ("" if none), with `timeout`.
   template <typename Request, typename Response>
   absl::StatusOr<Response> Unary(grpc::Status (v1::ExplorationService::Stub::*method)(
                                      grpc::ClientContext*, const Request&, Response*),
-                                 const Request& request);
+                                 const Request& request, const std::string& session,
+                                 std::chrono::milliseconds timeout);
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::ExplorationService::Stub> stub_;
   ClientOptions options_;

@@ -8,6 +8,9 @@ PACKAGES=(
   build-essential cmake pkg-config git
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libeigen3-dev coinor-libipopt-dev libabsl-dev liblbfgspp-dev libsqlite3-dev
+  libpqxx-dev  # the shared PostgreSQL store (--store=postgresql://...), with libpq
+  postgresql-15  # its tests start a real server (initdb + pg_ctl in a temp dir)
+  haproxy  # the session-routing proxy of the replica tests and deploy/compose.scale.yaml
   prometheus-cpp-dev  # the metrics endpoint (prometheus-cpp's exposer, on civetweb)
   libcpp-httplib-dev  # the live view (--web_listen)
   libmujoco-dev  # found by path: its CMake package would demand OpenGL and qhull

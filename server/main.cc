@@ -27,7 +27,25 @@
 ABSL_FLAG(std::string, listen, "127.0.0.1:50051",
           "Address to listen on, HOST:PORT; port 0 picks a free port (printed).");
 ABSL_FLAG(std::string, data_dir, "./.excite-data",
-          "Directory of the durable store (created if missing).");
+          "Directory of the embedded SQLite store (created if missing), unless --store "
+          "names another.");
+ABSL_FLAG(std::string, store, "",
+          "Empty: the embedded SQLite store in --data_dir (one server). "
+          "postgresql://USER@HOST:PORT/DB (or libpq key=value): a PostgreSQL database "
+          "shared by many replicas, each session served by one at a time. No password "
+          "here: --store_password_file, or libpq's PGPASSWORD / ~/.pgpass.");
+ABSL_FLAG(std::string, store_password_file, "",
+          "File holding the --store database's password (whitespace stripped).");
+ABSL_FLAG(std::string, replica_id, "",
+          "This replica's name in the session leases of a shared --store; default: "
+          "host name, process id and a random suffix.");
+ABSL_FLAG(int64_t, lease_ttl_ms, 6000,
+          "Shared --store: how long a session lease lasts unless renewed (renewed "
+          "every third of it); a replica that dies loses its sessions this long after "
+          "its last renewal.");
+ABSL_FLAG(int64_t, session_idle_release_s, 300,
+          "Shared --store: a session unused this long is released (memory freed, "
+          "lease given up); 0: never.");
 ABSL_FLAG(std::string, log_level, "info", "debug, info, warning or error.");
 ABSL_FLAG(int, max_message_mb, 64, "Largest gRPC message received or sent, in MiB.");
 ABSL_FLAG(int64_t, max_sessions, 10000, "Cap on the number of sessions.");
@@ -98,6 +116,20 @@ int Run(int argc, char** argv) {
   excite::service::ServerOptions options;
   options.listen = absl::GetFlag(FLAGS_listen);
   options.data_dir = absl::GetFlag(FLAGS_data_dir);
+  options.store_url = absl::GetFlag(FLAGS_store);
+  if (const std::string path = absl::GetFlag(FLAGS_store_password_file); !path.empty()) {
+    absl::StatusOr<std::string> password = excite::service::ReadSecretFile(path);
+    if (!password.ok()) {
+      std::fprintf(stderr, "excite-server: --store_password_file: %s\n",
+                   std::string(password.status().message()).c_str());
+      return 2;
+    }
+    options.store_password = *std::move(password);
+  }
+  options.replica_id = absl::GetFlag(FLAGS_replica_id);
+  options.lease_ttl = std::chrono::milliseconds(absl::GetFlag(FLAGS_lease_ttl_ms));
+  options.session_idle_release =
+      std::chrono::seconds(absl::GetFlag(FLAGS_session_idle_release_s));
   options.max_message_mb = absl::GetFlag(FLAGS_max_message_mb);
   options.limits.max_sessions = absl::GetFlag(FLAGS_max_sessions);
   options.limits.max_samples_per_session = absl::GetFlag(FLAGS_max_samples_per_session);

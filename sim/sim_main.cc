@@ -4,6 +4,7 @@
 //   excite-sim --server=127.0.0.1:50051 --config=sim/configs/pendulum.textproto
 //              --strategy=pa --samples=300 --seed=3 --summary=/tmp/pa.json
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <fstream>
@@ -41,6 +42,9 @@ ABSL_FLAG(std::string, trajectory, "",
 ABSL_FLAG(bool, keep_session, false, "keep the session on the server at the end");
 ABSL_FLAG(std::string, session_id, "", "session id to ask for; empty: server's choice");
 ABSL_FLAG(int32_t, connect_timeout_s, 10, "how long to wait for the server to be ready");
+ABSL_FLAG(int32_t, retry_unavailable_s, 30,
+          "how long a call that fails with UNAVAILABLE (a replica restarting, a session "
+          "moving between replicas) is retried before the run fails; 0: never");
 
 namespace excite::sim {
 namespace {
@@ -96,6 +100,8 @@ int Main() {
   if (absl::Status s = client::ApplyConnectionFlags(&client_options); !s.ok()) {
     return Fail(s);
   }
+  client_options.retry_unavailable =
+      std::chrono::seconds(std::max(0, absl::GetFlag(FLAGS_retry_unavailable_s)));
   std::unique_ptr<client::ExciteClient> client =
       client::ExciteClient::Connect(server, client_options);
   if (absl::Status s = client->WaitForReady(

@@ -1,8 +1,12 @@
 #include "server/service/excite_server.h"
 
+#include <unistd.h>
+
+#include <cstdio>
 #include <utility>
 #include <vector>
 
+#include "absl/random/random.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
@@ -12,6 +16,7 @@
 #include "grpcpp/server_builder.h"
 #include "server/service/logging.h"
 #include "server/service/malformed_request_interceptor.h"
+#include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
 
 namespace excite::service {
@@ -34,6 +39,41 @@ absl::Status SplitHostPort(const std::string& address, std::string* host, int* p
   return absl::OkStatus();
 }
 
+absl::StatusOr<std::unique_ptr<store::SessionStore>> OpenStore(
+    const ServerOptions& options) {
+  if (options.store_url.empty()) {
+    absl::StatusOr<std::unique_ptr<store::SqliteStore>> sqlite =
+        store::SqliteStore::Open(options.data_dir);
+    if (!sqlite.ok()) return sqlite.status();
+    return std::unique_ptr<store::SessionStore>(*std::move(sqlite));
+  }
+  store::PostgresStoreOptions postgres;
+  postgres.url = options.store_url;
+  postgres.password = options.store_password;
+  postgres.owner = options.replica_id.empty() ? DefaultReplicaId() : options.replica_id;
+  postgres.lease_ttl = options.lease_ttl;
+  absl::StatusOr<std::unique_ptr<store::PostgresStore>> opened =
+      store::PostgresStore::Open(postgres);
+  if (!opened.ok()) return opened.status();
+  Log(LogLevel::kInfo,
+      absl::StrCat("replica ", postgres.owner, " on ", (*opened)->location()));
+  return std::unique_ptr<store::SessionStore>(*std::move(opened));
+}
+
+std::string DefaultReplicaId() {
+  char host[256] = {};
+  if (gethostname(host, sizeof(host) - 1) != 0 || host[0] == '\0') {
+    std::snprintf(host, sizeof(host), "excite");
+  }
+  absl::BitGen random;
+  static constexpr char kAlphabet[] = "0123456789abcdefghijklmnopqrstuvwxyz";
+  std::string suffix;
+  for (int i = 0; i < 6; ++i) {
+    suffix.push_back(kAlphabet[absl::Uniform<size_t>(random, 0, sizeof(kAlphabet) - 1)]);
+  }
+  return absl::StrCat(host, "-", getpid(), "-", suffix);
+}
+
 absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
     const ServerOptions& options) {
   std::unique_ptr<ExciteServer> server(new ExciteServer());
@@ -46,8 +86,7 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
     return absl::InvalidArgumentError(absl::StrCat(
         "max_message_mb must be in [1, 2047], got ", options.max_message_mb));
   }
-  absl::StatusOr<std::unique_ptr<store::SqliteStore>> store =
-      store::SqliteStore::Open(options.data_dir);
+  absl::StatusOr<std::unique_ptr<store::SessionStore>> store = OpenStore(options);
   if (!store.ok()) return store.status();
   server->store_ = *std::move(store);
   if (!options.metrics_listen.empty()) server->metrics_ = std::make_unique<Metrics>();
@@ -59,9 +98,14 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
   server->budget_ = std::make_unique<MemoryBudget>(options.memory_budget_bytes > 0
                                                        ? options.memory_budget_bytes
                                                        : DefaultMemoryBudgetBytes());
+  RegistryOptions registry_options;
+  registry_options.max_sessions = options.limits.max_sessions;
+  registry_options.metrics = server->metrics_.get();
+  registry_options.budget = server->budget_.get();
+  registry_options.lease_ttl = options.lease_ttl;
+  registry_options.idle_release = options.session_idle_release;
   absl::StatusOr<std::unique_ptr<SessionRegistry>> registry =
-      SessionRegistry::Load(server->store_.get(), options.limits.max_sessions,
-                            server->metrics_.get(), server->budget_.get());
+      SessionRegistry::Load(server->store_.get(), registry_options);
   if (!registry.ok()) return registry.status();
   server->registry_ = *std::move(registry);
   ServiceLimits limits = options.limits;
@@ -105,23 +149,12 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
   server->port_ = bound_port;
   if (server->metrics_ != nullptr) {
     SessionRegistry* sessions = server->registry_.get();
-    server->metrics_->AddGauge("excite_sessions", "Sessions held.", [sessions]() {
-      return static_cast<double>(sessions->size());
-    });
     server->metrics_->AddGauge(
-        "excite_samples", "Samples held over all sessions.", [sessions]() {
-          double total = 0;
-          std::string token;
-          do {
-            absl::StatusOr<SessionRegistry::Page> page = sessions->List(1000, token);
-            if (!page.ok()) break;
-            for (const std::shared_ptr<Session>& session : page->sessions) {
-              total += static_cast<double>(session->Snapshot().sample_count);
-            }
-            token = page->next_page_token;
-          } while (!token.empty());
-          return total;
-        });
+        "excite_sessions", "Sessions held (loaded by this replica).",
+        [sessions]() { return static_cast<double>(sessions->size()); });
+    server->metrics_->AddGauge(
+        "excite_samples", "Samples held over the sessions loaded by this replica.",
+        [sessions]() { return static_cast<double>(sessions->loaded_samples()); });
     MemoryBudget* budget = server->budget_.get();
     server->metrics_->AddGauge(
         "excite_memory_estimate_bytes",

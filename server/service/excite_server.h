@@ -20,8 +20,21 @@ namespace excite::service {
 struct ServerOptions {
   // "host:port"; port 0 picks a free one (see ExciteServer::address()).
   std::string listen = "127.0.0.1:50051";
-  // Where the store lives (created if missing).
+  // Where the SQLite store lives (created if missing), unless store_url is set.
   std::string data_dir = "./.excite-data";
+  // Empty: the embedded SQLite store in data_dir. "postgresql://..." (or a libpq
+  // key=value string): the shared PostgreSQL store of many replicas
+  // (store::PostgresStore), with store_password (never in the URL).
+  std::string store_url;
+  std::string store_password;
+  // This replica's name in the leases it holds; empty: host name, process id
+  // and a random suffix (unique per start).
+  std::string replica_id;
+  // Shared store: how long a lease lasts unless renewed (a dead replica's
+  // sessions are served again within it), and how long an unused session stays
+  // loaded (see RegistryOptions).
+  std::chrono::milliseconds lease_ttl{6000};
+  std::chrono::milliseconds session_idle_release{std::chrono::minutes(5)};
   // Largest message received or sent.
   int max_message_mb = 64;
   ServiceLimits limits;
@@ -90,6 +103,12 @@ class ExciteServer {
   // Last: stops first (it calls server_ through its in-process channel).
   std::unique_ptr<web::WebView> web_view_;
 };
+
+// The store `options` name: SQLite in data_dir, or PostgreSQL at store_url.
+absl::StatusOr<std::unique_ptr<store::SessionStore>> OpenStore(
+    const ServerOptions& options);
+// host name, process id and a random suffix: a replica name unique per start.
+std::string DefaultReplicaId();
 
 // Splits "host:port" / "[v6]:port". INVALID_ARGUMENT if malformed.
 absl::Status SplitHostPort(const std::string& address, std::string* host, int* port);

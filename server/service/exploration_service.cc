@@ -108,7 +108,7 @@ grpc::Status ExplorationService::RunRpc(absl::string_view method,
 }
 
 absl::StatusOr<std::shared_ptr<Session>> ExplorationService::FindSession(
-    const std::string& name, absl::string_view field) const {
+    const std::string& name, absl::string_view field) {
   absl::StatusOr<std::string> id = ParseSessionName(name, field);
   if (!id.ok()) return id.status();
   return registry_->Get(*id);
@@ -135,12 +135,12 @@ grpc::Status ExplorationService::CreateSession(grpc::ServerContext* /*context*/,
         return s;
       }
     }
-    absl::StatusOr<std::shared_ptr<Session>> session =
+    absl::StatusOr<SessionDescription> created =
         registry_->Create(request->session_id(), request->config(),
                           request->display_name(), request->labels());
-    if (!session.ok()) return session.status();
-    *response = SessionToProto(**session);
-    Log(LogLevel::kInfo, absl::StrCat("created ", (*session)->name()));
+    if (!created.ok()) return created.status();
+    *response = SessionToProto(*created);
+    Log(LogLevel::kInfo, absl::StrCat("created ", response->name()));
     return absl::OkStatus();
   });
 }
@@ -152,7 +152,7 @@ grpc::Status ExplorationService::GetSession(grpc::ServerContext* /*context*/,
     absl::StatusOr<std::shared_ptr<Session>> session =
         FindSession(request->name(), "name");
     if (!session.ok()) return session.status();
-    *response = SessionToProto(**session);
+    *response = SessionToProto((*session)->Describe());
     return absl::OkStatus();
   });
 }
@@ -166,8 +166,8 @@ grpc::Status ExplorationService::ListSessions(grpc::ServerContext* /*context*/,
     absl::StatusOr<SessionRegistry::Page> page =
         registry_->List(request->page_size(), request->page_token(), *filter);
     if (!page.ok()) return page.status();
-    for (const std::shared_ptr<Session>& session : page->sessions) {
-      *response->add_sessions() = SessionToProto(*session);
+    for (const SessionDescription& session : page->sessions) {
+      *response->add_sessions() = SessionToProto(session);
     }
     response->set_next_page_token(page->next_page_token);
     return absl::OkStatus();
@@ -412,11 +412,11 @@ grpc::Status ExplorationService::ImportSession(grpc::ServerContext* /*context*/,
     const std::string& id = request->session_id().empty()
                                 ? request->archive().session_id()
                                 : request->session_id();
-    absl::StatusOr<std::shared_ptr<Session>> session =
+    absl::StatusOr<SessionDescription> imported =
         registry_->Import(id, std::move(records.record), records.samples);
-    if (!session.ok()) return session.status();
-    *response = SessionToProto(**session);
-    Log(LogLevel::kInfo, absl::StrCat("imported ", (*session)->name(), " with ",
+    if (!imported.ok()) return imported.status();
+    *response = SessionToProto(*imported);
+    Log(LogLevel::kInfo, absl::StrCat("imported ", response->name(), " with ",
                                       records.samples.size(), " samples"));
     return absl::OkStatus();
   });

@@ -87,7 +87,7 @@ class ExplorationService final : public v1::ExplorationService::Service {
   // The session named `name` ("sessions/{id}"; INVALID_ARGUMENT naming `field`
   // if malformed, NOT_FOUND if unknown).
   absl::StatusOr<std::shared_ptr<Session>> FindSession(const std::string& name,
-                                                       absl::string_view field) const;
+                                                       absl::string_view field);
   // One message of an AddData or StreamData stream: on the first, finds the
   // session into *session; then validates the message and stores it
   // (Session::AddSamples, whose result counts this message). INVALID_ARGUMENT

@@ -67,14 +67,48 @@ absl::Status InternalFromException(absl::string_view what, const std::exception&
 }  // namespace
 
 Session::Session(std::string id, v1::SessionConfig config, Metadata metadata,
-                 std::optional<gp::DynamicsModel> model, store::SessionStore* store)
+                 std::optional<gp::DynamicsModel> model, store::SessionStore* store,
+                 int64_t fence)
     : id_(std::move(id)),
       name_(SessionName(id_)),
       config_(std::move(config)),
       metadata_(std::move(metadata)),
       store_(store),
+      fence_(fence),
       model_(std::move(model)),
       planner_(PlanOptionsFromConfig(config_)) {}
+
+Session::~Session() {
+  absl::MutexLock lock(&mu_);
+  if (budget_ != nullptr) budget_->Release(reserved_bytes_);
+}
+
+Session::CallScope::CallScope(Session* session) : session_(session) {
+  session_->calls_.fetch_add(1, std::memory_order_acq_rel);
+}
+
+Session::CallScope::~CallScope() {
+  session_->last_call_end_ns_.store(Clock::now().time_since_epoch().count(),
+                                    std::memory_order_release);
+  session_->calls_.fetch_sub(1, std::memory_order_acq_rel);
+}
+
+bool Session::IdleFor(std::chrono::nanoseconds duration) const {
+  if (calls_.load(std::memory_order_acquire) > 0) return false;
+  const Clock::time_point last_end(
+      Clock::duration(last_call_end_ns_.load(std::memory_order_acquire)));
+  return Clock::now() - last_end >= duration;
+}
+
+absl::Status Session::StoreWriteFailed(const absl::Status& status,
+                                       absl::string_view what) {
+  if (absl::IsNotFound(status)) return NotDeleted(name_);
+  // The lease was lost or the write's outcome is unknown: this copy can no
+  // longer be trusted to match the store.
+  if (absl::IsUnavailable(status)) MarkStale();
+  return absl::Status(status.code(),
+                      absl::StrCat(what, " of session ", name_, ": ", status.message()));
+}
 
 Session::Metadata Session::MetadataOf(const store::SessionRecord& record) {
   return {record.display_name, record.labels, record.created_unix_ms};
@@ -83,7 +117,8 @@ Session::Metadata Session::MetadataOf(const store::SessionRecord& record) {
 absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
                                                          v1::SessionConfig config,
                                                          Metadata metadata,
-                                                         store::SessionStore* store) {
+                                                         store::SessionStore* store,
+                                                         int64_t fence) {
   try {
     absl::StatusOr<gp::DynamicsModel> model =
         gp::DynamicsModel::Create(ModelOptionsFromConfig(config));
@@ -91,8 +126,9 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
       return absl::Status(model.status().code(),
                           absl::StrCat("config: ", model.status().message()));
     }
-    std::shared_ptr<Session> session(new Session(
-        std::move(id), std::move(config), std::move(metadata), *std::move(model), store));
+    std::shared_ptr<Session> session(new Session(std::move(id), std::move(config),
+                                                 std::move(metadata), *std::move(model),
+                                                 store, fence));
     absl::MutexLock lock(&session->mu_);
     session->PublishSnapshot();
     return session;
@@ -103,15 +139,17 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
 
 absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
     const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
-    store::SessionStore* store, absl::Status unreadable) {
+    store::SessionStore* store, int64_t fence, absl::Status unreadable) {
   v1::SessionConfig config;
   if (!config.ParseFromString(record.config)) {
     config.Clear();
     return SetAside(record, std::move(config), samples,
-                    absl::DataLossError("its stored config does not parse"), store);
+                    absl::DataLossError("its stored config does not parse"), store,
+                    fence);
   }
   if (!unreadable.ok()) {
-    return SetAside(record, std::move(config), samples, std::move(unreadable), store);
+    return SetAside(record, std::move(config), samples, std::move(unreadable), store,
+                    fence);
   }
   try {
     gp::DynamicsModelOptions options = ModelOptionsFromConfig(config);
@@ -156,7 +194,8 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
       }
     }
     if (!damaged.ok()) {
-      return SetAside(record, std::move(config), samples, std::move(damaged), store);
+      return SetAside(record, std::move(config), samples, std::move(damaged), store,
+                      fence);
     }
     if (options_fit_kernel) {
       // The model is rebuilt with the last saved fit while it is current, and
@@ -175,8 +214,9 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
         }
       }
     }
-    std::shared_ptr<Session> session(new Session(
-        record.id, std::move(config), MetadataOf(record), *std::move(model), store));
+    std::shared_ptr<Session> session(new Session(record.id, std::move(config),
+                                                 MetadataOf(record), *std::move(model),
+                                                 store, fence));
     absl::MutexLock lock(&session->mu_);
     session->sample_count_ = n;
     session->last_sequence_ = last_sequence;
@@ -191,7 +231,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
 std::shared_ptr<Session> Session::SetAside(
     const store::SessionRecord& record, v1::SessionConfig config,
     const std::vector<store::SampleRecord>& samples, absl::Status damage,
-    store::SessionStore* store) {
+    store::SessionStore* store, int64_t fence) {
   // Not fatal: the server serves every other session.
   absl::Status damaged = absl::DataLossError(absl::StrCat(
       "session ", SessionName(record.id), " is damaged: ", damage.message(),
@@ -203,8 +243,8 @@ std::shared_ptr<Session> Session::SetAside(
     last_sequence = std::max(last_sequence, s.sequence);
   }
   const auto n = static_cast<int64_t>(samples.size());
-  std::shared_ptr<Session> session(
-      new Session(record.id, std::move(config), MetadataOf(record), std::nullopt, store));
+  std::shared_ptr<Session> session(new Session(
+      record.id, std::move(config), MetadataOf(record), std::nullopt, store, fence));
   absl::MutexLock lock(&session->mu_);
   session->damaged_ = std::move(damaged);
   session->sample_count_ = n;
@@ -217,6 +257,42 @@ std::shared_ptr<Session> Session::SetAside(
 SessionSnapshot Session::Snapshot() const {
   absl::MutexLock lock(&snapshot_mu_);
   return snapshot_;
+}
+
+SessionDescription Session::Describe() const {
+  SessionDescription description;
+  description.id = id_;
+  description.config = config_;
+  description.display_name = metadata_.display_name;
+  description.labels = metadata_.labels;
+  description.created_unix_ms = metadata_.created_unix_ms;
+  description.snapshot = Snapshot();
+  return description;
+}
+
+SessionDescription Session::DescribeStored(const store::SessionListing& listing) {
+  const store::SessionRecord& record = listing.record;
+  SessionDescription description;
+  description.id = record.id;
+  if (!description.config.ParseFromString(record.config)) description.config.Clear();
+  description.display_name = record.display_name;
+  description.labels = record.labels;
+  description.created_unix_ms = record.created_unix_ms;
+  SessionSnapshot& snapshot = description.snapshot;
+  snapshot.sample_count = listing.sample_count;
+  snapshot.last_sequence = listing.last_sequence;
+  snapshot.model_version = record.model_version + listing.sample_count;
+  const v1::SessionConfig& config = description.config;
+  if (std::optional<EngineFit> saved =
+          DecodeSavedFit(record.hyperparameters, config.state_dim(),
+                         config.state_dim() + config.input_dim())) {
+    for (gp::Hyperparameters& h : saved->hyperparameters) {
+      OutputSnapshot output;
+      output.hyperparameters = std::move(h);
+      snapshot.outputs.push_back(std::move(output));
+    }
+  }
+  return description;
 }
 
 absl::Status Session::Damage() const {
@@ -251,8 +327,16 @@ void Session::PublishSnapshot() {
   damage_ = damaged_;
 }
 
+absl::Status Session::StaleError() const {
+  return absl::UnavailableError(
+      absl::StrCat("session ", name_,
+                   " is being moved or reloaded on this replica (its lease ended, or "
+                   "the store was unreachable during a write): retry"));
+}
+
 absl::Status Session::CheckUsable() {
   if (deleted_) return NotDeleted(name_);
+  if (stale()) return StaleError();
   return damaged_;
 }
 
@@ -270,6 +354,7 @@ absl::Status Session::CheckModelAccepts(const std::vector<store::SampleRecord>& 
 
 absl::StatusOr<AddResult> Session::AddSamples(
     const std::vector<store::SampleRecord>& batch, int64_t max_samples) {
+  const CallScope call(this);
   const int dx = config_.state_dim();
   const int du = config_.input_dim();
   absl::MutexLock lock(&mu_);
@@ -297,16 +382,14 @@ absl::StatusOr<AddResult> Session::AddSamples(
       reserved_bytes_ = needed;
     }
     const Clock::time_point write_start = Clock::now();
-    absl::StatusOr<store::InsertResult> inserted = store_->InsertSamples(id_, batch);
+    absl::StatusOr<store::InsertResult> inserted =
+        store_->InsertSamples(id_, fence_, batch);
     if (metrics_ != nullptr && inserted.ok()) {
       metrics_->RecordStoreWrite("insert_samples", SecondsSince(write_start));
     }
     if (!inserted.ok()) {
       SettleBudget();
-      if (absl::IsNotFound(inserted.status())) return NotDeleted(name_);
-      return absl::Status(inserted.status().code(),
-                          absl::StrCat("storing the samples of session ", name_, ": ",
-                                       inserted.status().message()));
+      return StoreWriteFailed(inserted.status(), "storing the samples");
     }
     const Eigen::Index n = inserted->stored_count;
     if (n > 0) {
@@ -399,9 +482,11 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
   const std::string saved = EncodeSavedFit(model_->hyperparameters(),
                                            sample_count_ - model_->samples_since_fit());
   const Clock::time_point write_start = Clock::now();
-  if (absl::Status s = store_->SaveModelState(id_, saved, model_version_); !s.ok()) {
-    Log(LogLevel::kWarning,
-        absl::StrCat("saving the hyperparameters of ", name_, " failed: ", s.ToString()));
+  if (absl::Status s = store_->SaveModelState(id_, fence_, saved, model_version_);
+      !s.ok()) {
+    // Not the call's failure (they are a cache), but a lost lease still makes
+    // this copy stale.
+    Log(LogLevel::kWarning, StoreWriteFailed(s, "saving the hyperparameters").ToString());
   } else if (metrics_ != nullptr) {
     metrics_->RecordStoreWrite("save_model", SecondsSince(write_start));
   }
@@ -423,6 +508,7 @@ absl::StatusOr<Prediction> Session::Predict(const Eigen::MatrixXd& z, bool inclu
                                             Clock::time_point refit_deadline,
                                             Clock::time_point deadline,
                                             std::function<bool()> cancelled) {
+  const CallScope call(this);
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
   if (absl::Status s = EnsureFitted(std::min(refit_deadline, deadline), cancelled);
@@ -490,6 +576,7 @@ absl::Status Session::CheckPlanShape(const plan::Plan& plan, bool model_free) co
 absl::StatusOr<PlanResult> Session::PlanInputs(const Eigen::VectorXd& state,
                                                Clock::time_point deadline,
                                                std::function<bool()> cancelled) {
+  const CallScope call(this);
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
   // prbs, chirp and random never evaluate the model: no data needed, no refit.
@@ -535,8 +622,10 @@ absl::StatusOr<PlanResult> Session::PlanInputs(const Eigen::VectorXd& state,
 }
 
 absl::StatusOr<StoredSession> Session::Export() {
+  const CallScope call(this);
   absl::MutexLock lock(&mu_);
   if (deleted_) return NotDeleted(name_);  // a damaged session exports what is stored
+  if (stale()) return StaleError();
   absl::StatusOr<store::SessionRecord> record = store_->LoadSession(id_);
   if (!record.ok()) {
     if (absl::IsNotFound(record.status())) return NotDeleted(name_);
@@ -551,10 +640,14 @@ absl::StatusOr<StoredSession> Session::Export() {
 }
 
 absl::Status Session::Delete() {
+  const CallScope call(this);
   absl::MutexLock lock(&mu_);
   if (deleted_) return NotDeleted(name_);
-  absl::Status status = store_->DeleteSession(id_);
-  if (!status.ok() && !absl::IsNotFound(status)) return status;
+  if (stale()) return StaleError();
+  absl::Status status = store_->DeleteSession(id_, fence_);
+  if (!status.ok() && !absl::IsNotFound(status)) {
+    return StoreWriteFailed(status, "deleting");
+  }
   deleted_ = true;
   if (budget_ != nullptr) budget_->Release(reserved_bytes_);
   reserved_bytes_ = 0;

@@ -2,9 +2,11 @@
 #define EXCITE_SERVER_SERVICE_SESSION_H_
 
 #include <Eigen/Dense>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -13,6 +15,7 @@
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "absl/synchronization/mutex.h"
 #include "excite/v1/session_config.pb.h"
 #include "server/gp/dynamics_model.h"
@@ -71,6 +74,16 @@ struct SessionSnapshot {
   std::optional<PlanResult> last_plan;
 };
 
+// Everything a session reports: what GetSession and ListSessions answer.
+struct SessionDescription {
+  std::string id;
+  v1::SessionConfig config;  // empty if the stored config does not parse
+  std::string display_name;
+  std::map<std::string, std::string> labels;
+  int64_t created_unix_ms = 0;  // 0: unknown
+  SessionSnapshot snapshot;
+};
+
 // A session as the store holds it: what ExportSession writes into an archive.
 struct StoredSession {
   store::SessionRecord record;
@@ -106,12 +119,14 @@ class Session {
   };
 
   // A new, empty session. `config` must have passed ValidateSessionConfig and
-  // `metadata` ValidateDisplayNameAndLabels. `store` must outlive the session.
-  // Does not write the store.
+  // `metadata` ValidateDisplayNameAndLabels. `store` must outlive the session;
+  // its writes carry `fence`, the lease this replica holds on the session (0 in
+  // an exclusive store). Does not write the store.
   static absl::StatusOr<std::shared_ptr<Session>> Create(std::string id,
                                                          v1::SessionConfig config,
                                                          Metadata metadata,
-                                                         store::SessionStore* store);
+                                                         store::SessionStore* store,
+                                                         int64_t fence = 0);
 
   // A session rebuilt from the store: its record and all its samples (in any
   // order). The GP gets every sample; it is fitted lazily at first use. With
@@ -129,7 +144,18 @@ class Session {
   // session aside; `samples` are then the rows that could be read.
   static absl::StatusOr<std::shared_ptr<Session>> Restore(
       const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
-      store::SessionStore* store, absl::Status unreadable = absl::OkStatus());
+      store::SessionStore* store, int64_t fence = 0,
+      absl::Status unreadable = absl::OkStatus());
+
+  // What Describe() of the session restored from `listing` would report before
+  // its first call: config, metadata, counts, model version as Restore
+  // computes it, and the saved hyperparameters (without log likelihoods).
+  static SessionDescription DescribeStored(const store::SessionListing& listing);
+
+  // Gives back what the session holds of its memory budget.
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
 
   const std::string& id() const { return id_; }
   // "sessions/{id}".
@@ -137,7 +163,18 @@ class Session {
   const v1::SessionConfig& config() const { return config_; }
   const Metadata& metadata() const { return metadata_; }
   const Labels& labels() const { return metadata_.labels; }
+  int64_t fence() const { return fence_; }
 
+  // A session whose copy here may no longer be the store's: its lease was lost
+  // or released, or a write's outcome is unknown (the store was unreachable).
+  // Every later call answers UNAVAILABLE; the registry loads the session anew.
+  // Set by a failed write, or by MarkStale. Never waits.
+  bool stale() const { return stale_.load(std::memory_order_acquire); }
+  void MarkStale() { stale_.store(true, std::memory_order_release); }
+
+  // True if no call is running and none ended in the last `duration`. Never
+  // waits.
+  bool IdleFor(std::chrono::nanoseconds duration) const;
   // Where refit and store-write timings go (nullptr: nowhere, the default). Call
   // before the session is shared; `metrics` must outlive it.
   void AttachMetrics(Metrics* metrics) { metrics_ = metrics; }
@@ -157,13 +194,16 @@ class Session {
 
   // Sample count, last sequence, model version, outputs and the latest plan.
   SessionSnapshot Snapshot() const;
+  // The snapshot with the session's id, config and metadata.
+  SessionDescription Describe() const;
 
   // One batch of measured transitions (shapes and values already validated):
   // checks that the model can take it (INVALID_ARGUMENT naming "transitions",
   // nothing stored, if not), stores it durably (one transaction), then adds the
   // newly stored samples to the GP. The result counts this batch only. NOT_FOUND
   // if the session was deleted, RESOURCE_EXHAUSTED (nothing stored) if the
-  // session would exceed `max_samples` or the memory budget.
+  // session would exceed `max_samples` or the memory budget; UNAVAILABLE from
+  // the store (lease lost, store unreachable) makes the session stale.
   absl::StatusOr<AddResult> AddSamples(const std::vector<store::SampleRecord>& batch,
                                        int64_t max_samples);
 
@@ -202,16 +242,33 @@ class Session {
 
  private:
   Session(std::string id, v1::SessionConfig config, Metadata metadata,
-          std::optional<gp::DynamicsModel> model, store::SessionStore* store);
+          std::optional<gp::DynamicsModel> model, store::SessionStore* store,
+          int64_t fence);
+  // Counts one call from construction to destruction (IdleFor).
+  class CallScope {
+   public:
+    explicit CallScope(Session* session);
+    ~CallScope();
+    CallScope(const CallScope&) = delete;
+    CallScope& operator=(const CallScope&) = delete;
+
+   private:
+    Session* const session_;
+  };
   static Metadata MetadataOf(const store::SessionRecord& record);
   // A damaged session (see Restore): no model, every model call answers `damage`
   // as DATA_LOSS.
   static std::shared_ptr<Session> SetAside(
       const store::SessionRecord& record, v1::SessionConfig config,
       const std::vector<store::SampleRecord>& samples, absl::Status damage,
-      store::SessionStore* store);
+      store::SessionStore* store, int64_t fence);
+  // A store write's failure as the caller gets it; UNAVAILABLE (the lease lost,
+  // or an outcome unknown) also makes the session stale.
+  absl::Status StoreWriteFailed(const absl::Status& status, absl::string_view what);
 
+  // NOT_FOUND once deleted, UNAVAILABLE once stale, DATA_LOSS if damaged.
   absl::Status CheckUsable() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  absl::Status StaleError() const;
   // INVALID_ARGUMENT unless the model can add `batch` (GP DynamicsModel::
   // CheckSamples): checked before anything is stored, so that no stored sample
   // can leave a model that cannot answer.
@@ -233,6 +290,7 @@ class Session {
   const v1::SessionConfig config_;
   const Metadata metadata_;
   store::SessionStore* const store_;
+  const int64_t fence_;
   Metrics* metrics_ = nullptr;
   MemoryBudget* budget_ = nullptr;
 
@@ -251,6 +309,11 @@ class Session {
   // DATA_LOSS if restored from samples the model cannot use: every call but
   // Snapshot, Export and Delete returns it.
   absl::Status damaged_ ABSL_GUARDED_BY(mu_);
+
+  std::atomic<bool> stale_{false};
+  std::atomic<int> calls_{0};
+  // steady_clock nanoseconds at the end of the last call.
+  std::atomic<int64_t> last_call_end_ns_{0};
 
   mutable absl::Mutex snapshot_mu_ ABSL_ACQUIRED_AFTER(mu_);
   SessionSnapshot snapshot_ ABSL_GUARDED_BY(snapshot_mu_);

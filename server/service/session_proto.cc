@@ -1,6 +1,7 @@
 #include "server/service/session_proto.h"
 
 #include "google/protobuf/util/time_util.h"
+#include "server/service/resource_name.h"
 #include "server/service/session_options.h"
 
 namespace excite::service {
@@ -54,19 +55,18 @@ v1::PlanInputsResponse PlanToProto(const PlanResult& result) {
   return response;
 }
 
-v1::Session SessionToProto(const Session& session) {
+v1::Session SessionToProto(const SessionDescription& description) {
   v1::Session proto;
-  proto.set_name(session.name());
-  *proto.mutable_config() = session.config();
-  const Session::Metadata& metadata = session.metadata();
-  proto.set_display_name(metadata.display_name);
-  proto.mutable_labels()->insert(metadata.labels.begin(), metadata.labels.end());
-  if (metadata.created_unix_ms > 0) {
+  proto.set_name(SessionName(description.id));
+  *proto.mutable_config() = description.config;
+  proto.set_display_name(description.display_name);
+  proto.mutable_labels()->insert(description.labels.begin(), description.labels.end());
+  if (description.created_unix_ms > 0) {
     *proto.mutable_create_time() =
         google::protobuf::util::TimeUtil::MillisecondsToTimestamp(
-            metadata.created_unix_ms);
+            description.created_unix_ms);
   }
-  const SessionSnapshot snapshot = session.Snapshot();
+  const SessionSnapshot& snapshot = description.snapshot;
   proto.set_sample_count(snapshot.sample_count);
   proto.set_last_sequence(snapshot.last_sequence);
   proto.set_model_version(snapshot.model_version);

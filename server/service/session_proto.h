@@ -12,8 +12,8 @@ namespace excite::service {
 // The wire's messages of a session's results (the service's half of the
 // translation; Session speaks in engine types).
 
-// name, config, display name, labels, create time and Session::Snapshot().
-v1::Session SessionToProto(const Session& session);
+// name, config, display name, labels, create time and the snapshot.
+v1::Session SessionToProto(const SessionDescription& description);
 
 // Inputs, predicted states and variances row-major, horizon, apply_count and the
 // solver's summary.

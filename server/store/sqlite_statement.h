@@ -56,10 +56,6 @@ class SqliteStatement {
   std::string sql_;
 };
 
-// Doubles <-> blob of IEEE-754 little-endian doubles (the store's format).
-std::string EncodeDoubles(const std::vector<double>& values);
-absl::StatusOr<std::vector<double>> DecodeDoubles(absl::string_view bytes);
-
 }  // namespace excite::store
 
 #endif  // EXCITE_SERVER_STORE_SQLITE_STATEMENT_H_

@@ -407,7 +407,7 @@ absl::Status SqliteStore::ImportSession(const SessionRecord& session,
   });
 }
 
-absl::Status SqliteStore::DeleteSession(const std::string& id) {
+absl::Status SqliteStore::DeleteSession(const std::string& id, int64_t /*fence*/) {
   absl::MutexLock lock(&mu_);
   return InTransaction([&]() -> absl::Status {
     for (const char* sql : {"DELETE FROM samples WHERE session_id = ?",
@@ -429,20 +429,50 @@ absl::Status SqliteStore::DeleteSession(const std::string& id) {
   });
 }
 
-absl::StatusOr<std::vector<SessionRecord>> SqliteStore::LoadSessions() {
+absl::StatusOr<int64_t> SqliteStore::CountSessions() {
   absl::MutexLock lock(&mu_);
   absl::StatusOr<SqliteStatement> stmt =
-      SqliteStatement::Prepare(db_, absl::StrCat(kSelectSessions, " ORDER BY id"));
+      SqliteStatement::Prepare(db_, "SELECT count(*) FROM sessions");
   if (!stmt.ok()) return stmt.status();
-  std::vector<SessionRecord> sessions;
+  absl::StatusOr<bool> row = stmt->Step();
+  if (!row.ok()) return row.status();
+  return *row ? stmt->ColumnInt64(0) : 0;
+}
+
+absl::StatusOr<std::vector<SessionListing>> SqliteStore::ListSessions(
+    const std::string& after_id, int limit) {
+  absl::MutexLock lock(&mu_);
+  absl::StatusOr<SqliteStatement> stmt = SqliteStatement::Prepare(
+      db_, absl::StrCat(kSelectSessions, " WHERE id > ? ORDER BY id LIMIT ?"));
+  if (!stmt.ok()) return stmt.status();
+  if (absl::Status s = stmt->BindText(1, after_id); !s.ok()) return s;
+  if (absl::Status s = stmt->BindInt64(2, limit); !s.ok()) return s;
+  std::vector<SessionRecord> records;
   while (true) {
     absl::StatusOr<bool> row = stmt->Step();
     if (!row.ok()) return row.status();
     if (!*row) break;
-    sessions.push_back(SessionFromRow(*stmt));
+    records.push_back(SessionFromRow(*stmt));
   }
-  if (absl::Status s = LoadLabels(&sessions); !s.ok()) return s;
-  return sessions;
+  if (absl::Status s = LoadLabels(&records); !s.ok()) return s;
+  absl::StatusOr<SqliteStatement> counts = SqliteStatement::Prepare(
+      db_,
+      "SELECT count(*), coalesce(max(sequence), -1) FROM samples WHERE session_id = ?");
+  if (!counts.ok()) return counts.status();
+  std::vector<SessionListing> listings;
+  listings.reserve(records.size());
+  for (SessionRecord& record : records) {
+    if (absl::Status s = counts->Reset(); !s.ok()) return s;
+    if (absl::Status s = counts->BindText(1, record.id); !s.ok()) return s;
+    absl::StatusOr<bool> row = counts->Step();
+    if (!row.ok()) return row.status();
+    SessionListing listing;
+    listing.sample_count = *row ? counts->ColumnInt64(0) : 0;
+    listing.last_sequence = *row ? counts->ColumnInt64(1) : -1;
+    listing.record = std::move(record);
+    listings.push_back(std::move(listing));
+  }
+  return listings;
 }
 
 absl::StatusOr<SessionRecord> SqliteStore::LoadSession(const std::string& id) {
@@ -501,7 +531,8 @@ absl::StatusOr<std::vector<SampleRecord>> SqliteStore::LoadSamples(
 }
 
 absl::StatusOr<InsertResult> SqliteStore::InsertSamples(
-    const std::string& session_id, const std::vector<SampleRecord>& batch) {
+    const std::string& session_id, int64_t /*fence*/,
+    const std::vector<SampleRecord>& batch) {
   absl::MutexLock lock(&mu_);
   InsertResult result;
   absl::Status status = InTransaction([&]() -> absl::Status {
@@ -517,7 +548,7 @@ absl::StatusOr<InsertResult> SqliteStore::InsertSamples(
   return result;
 }
 
-absl::Status SqliteStore::SaveModelState(const std::string& session_id,
+absl::Status SqliteStore::SaveModelState(const std::string& session_id, int64_t /*fence*/,
                                          const std::string& hyperparameters,
                                          int64_t model_version) {
   absl::MutexLock lock(&mu_);
@@ -532,6 +563,27 @@ absl::Status SqliteStore::SaveModelState(const std::string& session_id,
     return absl::NotFoundError(
         absl::StrCat("session sessions/", session_id, " not found"));
   }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<int64_t> SqliteStore::AcquireLease(const std::string& session_id) {
+  absl::MutexLock lock(&mu_);
+  absl::StatusOr<bool> exists = SessionExists(session_id);
+  if (!exists.ok()) return exists.status();
+  if (!*exists) {
+    return absl::NotFoundError(
+        absl::StrCat("session sessions/", session_id, " not found"));
+  }
+  return 0;
+}
+
+absl::StatusOr<LeaseRenewal> SqliteStore::RenewLeases(
+    const std::vector<HeldLease>& /*held*/) {
+  return LeaseRenewal();
+}
+
+absl::Status SqliteStore::ReleaseLease(const std::string& /*session_id*/,
+                                       int64_t /*fence*/) {
   return absl::OkStatus();
 }
 

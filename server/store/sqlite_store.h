@@ -54,20 +54,28 @@ class SqliteStore final : public SessionStore {
   std::string location() const override { return path_; }
 
   // SessionStore. InsertSamples uses INSERT OR IGNORE; it and ImportSession cost
-  // O(rows) inserts plus one fsync.
+  // O(rows) inserts plus one fsync. Exclusive: fences are not checked, every
+  // lease of a stored session is granted with fence 0 and never lost.
+  bool shared() const override { return false; }
   absl::Status CreateSession(const SessionRecord& session) override;
-  absl::Status DeleteSession(const std::string& id) override;
-  absl::StatusOr<std::vector<SessionRecord>> LoadSessions() override;
-  absl::StatusOr<SessionRecord> LoadSession(const std::string& id) override;
-  absl::StatusOr<std::vector<SampleRecord>> LoadSamples(
-      const std::string& session_id, std::vector<int64_t>* unreadable = nullptr) override;
-  absl::StatusOr<InsertResult> InsertSamples(
-      const std::string& session_id, const std::vector<SampleRecord>& batch) override;
   absl::Status ImportSession(const SessionRecord& session,
                              const std::vector<SampleRecord>& samples) override;
-  absl::Status SaveModelState(const std::string& session_id,
+  absl::StatusOr<int64_t> CountSessions() override;
+  absl::StatusOr<std::vector<SessionListing>> ListSessions(const std::string& after_id,
+                                                           int limit) override;
+  absl::StatusOr<SessionRecord> LoadSession(const std::string& id) override;
+  absl::StatusOr<std::vector<SampleRecord>> LoadSamples(
+      const std::string& session_id, std::vector<int64_t>* unreadable) override;
+  absl::StatusOr<InsertResult> InsertSamples(
+      const std::string& session_id, int64_t fence,
+      const std::vector<SampleRecord>& batch) override;
+  absl::Status SaveModelState(const std::string& session_id, int64_t fence,
                               const std::string& hyperparameters,
                               int64_t model_version) override;
+  absl::Status DeleteSession(const std::string& id, int64_t fence) override;
+  absl::StatusOr<int64_t> AcquireLease(const std::string& session_id) override;
+  absl::StatusOr<LeaseRenewal> RenewLeases(const std::vector<HeldLease>& held) override;
+  absl::Status ReleaseLease(const std::string& session_id, int64_t fence) override;
 
  private:
   SqliteStore(sqlite3* db, std::string path, int lock_fd);

@@ -43,6 +43,29 @@ struct InsertResult {
   int64_t duplicate_count = 0;
 };
 
+// A session as ListSessions gives it: its record and what its samples are.
+struct SessionListing {
+  SessionRecord record;
+  int64_t sample_count = 0;
+  int64_t last_sequence = -1;  // -1: no sample
+};
+
+// A lease a replica holds: the session and the fence it was granted.
+struct HeldLease {
+  std::string session_id;
+  int64_t fence = 0;
+};
+
+// What RenewLeases found.
+struct LeaseRenewal {
+  // Sessions of the request that this replica no longer owns: taken over by
+  // another replica after the lease expired, or deleted.
+  std::vector<std::string> lost;
+  // Sessions still owned that another replica asked for (AcquireLease failed
+  // there): release them once idle.
+  std::vector<std::string> wanted;
+};
+
 }  // namespace excite::store
 
 #endif  // EXCITE_SERVER_STORE_STORE_RECORDS_H_

@@ -145,7 +145,7 @@ TEST_F(HostileValuesTest, ASessionAnOlderVersionPoisonedIsSetAsideNotFatal) {
     poison.state = {1e308, 0.0};
     poison.input = {0.0};
     poison.next_state = {-1e308, 0.0};
-    ASSERT_TRUE((*store)->InsertSamples("poisoned", {poison}).ok());
+    ASSERT_TRUE((*store)->InsertSamples("poisoned", /*fence=*/0, {poison}).ok());
   }
   StartServer();  // used to fail: "restoring samples: ... overflows"
   ExpectAnswers(good);

@@ -20,7 +20,7 @@
 #include "server/service/config_text.h"
 #include "server/service/excite_server.h"
 #include "tests/service/pendulum_data.h"
-#include "tests/service/temp_dir.h"
+#include "tests/support/temp_dir.h"
 
 namespace excite::service {
 namespace {

@@ -19,7 +19,7 @@
 #include "gtest/gtest.h"
 #include "server/service/config_text.h"
 #include "tests/service/server_process.h"
-#include "tests/service/temp_dir.h"
+#include "tests/support/temp_dir.h"
 
 namespace excite::service {
 namespace {

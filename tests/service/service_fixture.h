@@ -21,7 +21,7 @@
 #include "gtest/gtest.h"
 #include "server/service/config_text.h"
 #include "server/service/excite_server.h"
-#include "tests/service/temp_dir.h"
+#include "tests/support/temp_dir.h"
 
 namespace excite::testing {
 

@@ -28,7 +28,7 @@
 #include "server/store/sqlite_store.h"
 #include "tests/service/pendulum_data.h"
 #include "tests/service/service_fixture.h"
-#include "tests/service/temp_dir.h"
+#include "tests/support/temp_dir.h"
 
 namespace excite::service {
 namespace {
@@ -664,9 +664,11 @@ TEST_F(ServiceTest, RestartTimeFor100SessionsOf1000Samples) {
       record.id = "bulk-" + std::to_string(i);
       record.config = config->SerializeAsString();
       ASSERT_TRUE((*store)->CreateSession(record).ok());
-      ASSERT_TRUE((*store)->InsertSamples(record.id, samples).ok());
-      ASSERT_TRUE(
-          (*store)->SaveModelState(record.id, saved_outputs.SerializeAsString(), 1).ok());
+      ASSERT_TRUE((*store)->InsertSamples(record.id, /*fence=*/0, samples).ok());
+      ASSERT_TRUE((*store)
+                      ->SaveModelState(record.id, /*fence=*/0,
+                                       saved_outputs.SerializeAsString(), 1)
+                      .ok());
     }
   }
   const auto t0 = std::chrono::steady_clock::now();

@@ -1,5 +1,5 @@
-#ifndef EXCITE_TESTS_SERVICE_TEMP_DIR_H_
-#define EXCITE_TESTS_SERVICE_TEMP_DIR_H_
+#ifndef EXCITE_TESTS_SUPPORT_TEMP_DIR_H_
+#define EXCITE_TESTS_SUPPORT_TEMP_DIR_H_
 
 #include <stdlib.h>
 
@@ -35,4 +35,4 @@ class TempDir {
 
 }  // namespace excite::testing
 
-#endif  // EXCITE_TESTS_SERVICE_TEMP_DIR_H_
+#endif  // EXCITE_TESTS_SUPPORT_TEMP_DIR_H_

@@ -1,0 +1,172 @@
+#include "tests/support/postgres_server.h"
+
+#include <arpa/inet.h>
+#include <glob.h>
+#include <netinet/in.h>
+#include <pwd.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <pqxx/pqxx>
+#include <random>
+#include <sstream>
+#include <system_error>
+
+#include "absl/strings/str_cat.h"
+
+namespace excite::testing {
+namespace {
+
+// The newest installed PostgreSQL's bin directory, or "".
+std::string FindBinDir() {
+  glob_t found{};
+  std::string best;
+  if (glob("/usr/lib/postgresql/*/bin/initdb", 0, nullptr, &found) == 0) {
+    for (size_t i = 0; i < found.gl_pathc; ++i) {
+      const std::string path = found.gl_pathv[i];
+      if (path > best) best = path;  // "15" > "14"; fine for the versions Debian has
+    }
+  }
+  globfree(&found);
+  return best.empty() ? "" : std::filesystem::path(best).parent_path().string();
+}
+
+int FreePort() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  address.sin_port = 0;
+  socklen_t length = sizeof(address);
+  int port = 0;
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0 &&
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) == 0) {
+    port = ntohs(address.sin_port);
+  }
+  ::close(fd);
+  return port;
+}
+
+std::string Tail(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream all;
+  all << in.rdbuf();
+  const std::string text = all.str();
+  return text.size() > 2000 ? text.substr(text.size() - 2000) : text;
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<PostgresServer>> PostgresServer::Start() {
+  std::unique_ptr<PostgresServer> server(new PostgresServer());
+  server->bin_ = FindBinDir();
+  if (server->bin_.empty()) {
+    return absl::FailedPreconditionError(
+        "no PostgreSQL server binaries in /usr/lib/postgresql/*/bin (scripts/setup.sh "
+        "installs postgresql-15)");
+  }
+  const char* base = std::getenv("TMPDIR");
+  std::string pattern =
+      std::string(base != nullptr && *base != '\0' ? base : "/tmp") + "/excite-pg-XXXXXX";
+  if (mkdtemp(pattern.data()) == nullptr) {
+    return absl::InternalError("cannot create a temporary directory");
+  }
+  server->dir_ = pattern;
+  server->data_ = server->dir_ + "/data";
+  server->log_ = server->dir_ + "/postgres.log";
+  server->password_file_ = server->dir_ + "/password";
+  std::random_device random;
+  server->password_ = absl::StrCat("pw-", random(), "-", random());
+  {
+    std::ofstream(server->password_file_) << server->password_ << "\n";
+    std::ofstream(server->log_) << "";
+  }
+  if (::geteuid() == 0) {
+    // initdb refuses root: the cluster and its files belong to "nobody".
+    const passwd* nobody = ::getpwnam("nobody");
+    if (nobody == nullptr) return absl::FailedPreconditionError("no user nobody");
+    for (const std::string& path : {server->dir_, server->password_file_, server->log_}) {
+      if (::chown(path.c_str(), nobody->pw_uid, nobody->pw_gid) != 0) {
+        return absl::InternalError(absl::StrCat("cannot chown ", path));
+      }
+    }
+    server->as_user_ = absl::StrCat("setpriv --reuid=", nobody->pw_uid,
+                                    " --regid=", nobody->pw_gid, " --clear-groups -- ");
+  }
+  if (absl::Status s = server->Run(
+          absl::StrCat(
+              server->bin_, "/initdb -D ", server->data_,
+              " -U excite --auth=scram-sha-256 --pwfile=", server->password_file_,
+              " --no-sync --no-instructions -E UTF8 --locale=C"),
+          "initdb");
+      !s.ok()) {
+    return s;
+  }
+  server->port_ = FreePort();
+  if (absl::Status s = server->StartAgain(); !s.ok()) return s;
+  return server;
+}
+
+PostgresServer::~PostgresServer() {
+  if (running_) {
+    Run(absl::StrCat(bin_, "/pg_ctl -D ", data_, " -m immediate -w stop"), "pg_ctl stop")
+        .IgnoreError();
+  }
+  std::error_code ec;
+  if (!dir_.empty()) std::filesystem::remove_all(dir_, ec);
+}
+
+absl::Status PostgresServer::Run(const std::string& command, const std::string& what) {
+  const std::string full = absl::StrCat(as_user_, command, " >> ", log_, " 2>&1");
+  const int rc = std::system(full.c_str());
+  if (rc == 0) return absl::OkStatus();
+  return absl::InternalError(
+      absl::StrCat(what, " failed (", rc, "): ", full, "\n", Tail(log_)));
+}
+
+absl::Status PostgresServer::StartAgain() {
+  absl::Status s =
+      Run(absl::StrCat(bin_, "/pg_ctl -D ", data_, " -l ", log_, " -w -t 60 -o \"-p ",
+                       port_, " -k ", dir_, " -c listen_addresses=127.0.0.1\" start"),
+          "pg_ctl start");
+  if (s.ok()) running_ = true;
+  return s;
+}
+
+absl::Status PostgresServer::Stop() {
+  absl::Status s =
+      Run(absl::StrCat(bin_, "/pg_ctl -D ", data_, " -m fast -w stop"), "pg_ctl stop");
+  if (s.ok()) running_ = false;
+  return s;
+}
+
+std::string PostgresServer::url(const std::string& dbname) const {
+  return absl::StrCat("postgresql://excite@127.0.0.1:", port_, "/", dbname);
+}
+
+std::string PostgresServer::Conninfo(const std::string& dbname) const {
+  return absl::StrCat("host=127.0.0.1 port=", port_, " user=excite dbname=", dbname,
+                      " password=", password_);
+}
+
+absl::StatusOr<std::string> PostgresServer::Query(const std::string& sql,
+                                                  const std::string& dbname) {
+  try {
+    pqxx::connection conn(Conninfo(dbname));
+    pqxx::nontransaction tx(conn);
+    const pqxx::result rows = tx.exec(sql);
+    if (rows.empty() || rows[0].empty() || rows[0][0].is_null()) return std::string();
+    return rows[0][0].as<std::string>();
+  } catch (const std::exception& e) {
+    return absl::InternalError(absl::StrCat("query \"", sql, "\": ", e.what()));
+  }
+}
+
+absl::Status PostgresServer::CreateDatabase(const std::string& name) {
+  return Query(absl::StrCat("CREATE DATABASE \"", name, "\""), "postgres").status();
+}
+
+}  // namespace excite::testing
