@@ -33,11 +33,6 @@ const absl::Status& StatusOf(const absl::StatusOr<T>& result) {
   return result.status();
 }
 
-// "sessions/{id}" of a request that names an id ("" if it does not).
-std::string NameOfId(const std::string& id) {
-  return id.empty() ? std::string() : absl::StrCat("sessions/", id);
-}
-
 absl::Status FromGrpc(const grpc::Status& status) {
   if (status.ok()) return absl::OkStatus();
   const int code = static_cast<int>(status.error_code());
@@ -90,7 +85,12 @@ void ExciteClient::Prepare(grpc::ClientContext* context,
   if (!options_.auth_token.empty()) {
     context->AddMetadata("authorization", "Bearer " + options_.auth_token);
   }
-  if (!session.empty()) context->AddMetadata(kSessionHeader, session);
+  if (!session.empty()) {
+    // The id alone, as the Python client sends it: one hash key per session.
+    const size_t slash = session.find('/');
+    context->AddMetadata(
+        kSessionHeader, slash == std::string::npos ? session : session.substr(slash + 1));
+  }
 }
 
 template <typename Attempt>
@@ -152,7 +152,7 @@ absl::StatusOr<v1::Session> ExciteClient::CreateSession(const v1::SessionConfig&
 absl::StatusOr<v1::Session> ExciteClient::CreateSession(
     const v1::CreateSessionRequest& request) {
   return Unary(&v1::ExplorationService::Stub::CreateSession, request,
-               NameOfId(request.session_id()), options_.default_deadline);
+               request.session_id(), options_.default_deadline);
 }
 
 absl::StatusOr<v1::Session> ExciteClient::GetSession(const std::string& name) {
@@ -301,10 +301,9 @@ absl::StatusOr<v1::Session> ExciteClient::ImportSession(const v1::SessionArchive
   v1::ImportSessionRequest request;
   *request.mutable_archive() = archive;
   request.set_session_id(session_id);
-  absl::StatusOr<v1::Session> session =
-      Unary(&v1::ExplorationService::Stub::ImportSession, request,
-            NameOfId(session_id.empty() ? archive.session_id() : session_id),
-            options_.default_deadline);
+  absl::StatusOr<v1::Session> session = Unary(
+      &v1::ExplorationService::Stub::ImportSession, request,
+      session_id.empty() ? archive.session_id() : session_id, options_.default_deadline);
   if (!session.ok()) {
     return WithSizeHint(
         session.status(),

@@ -36,10 +36,10 @@ struct ClientOptions {
   std::chrono::milliseconds retry_unavailable{0};
 };
 
-// The request header naming the session a call is about
-// ("x-excite-session: sessions/{id}"). Every session call of this client (and of
-// the Python client) carries it, so that a proxy in front of several replicas
-// can route all calls of a session to one replica (deploy/haproxy).
+// The request header naming the session a call is about: its id
+// ("x-excite-session: {id}"). Every session call of this client and of the Python
+// client carries it, so that a proxy in front of several replicas can route all
+// calls of a session to one replica (deploy/haproxy).
 inline constexpr char kSessionHeader[] = "x-excite-session";
 
 // Reads the client's auth token: the file `token_file` if non-empty (whitespace

@@ -1,10 +1,7 @@
 #include "tests/support/postgres_server.h"
 
-#include <arpa/inet.h>
 #include <glob.h>
-#include <netinet/in.h>
 #include <pwd.h>
-#include <sys/socket.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -16,6 +13,7 @@
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
+#include "tests/support/child_process.h"
 
 namespace excite::testing {
 namespace {
@@ -32,22 +30,6 @@ std::string FindBinDir() {
   }
   globfree(&found);
   return best.empty() ? "" : std::filesystem::path(best).parent_path().string();
-}
-
-int FreePort() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  address.sin_port = 0;
-  socklen_t length = sizeof(address);
-  int port = 0;
-  if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0 &&
-      ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) == 0) {
-    port = ntohs(address.sin_port);
-  }
-  ::close(fd);
-  return port;
 }
 
 std::string Tail(const std::string& path) {
@@ -105,7 +87,7 @@ absl::StatusOr<std::unique_ptr<PostgresServer>> PostgresServer::Start() {
       !s.ok()) {
     return s;
   }
-  server->port_ = FreePort();
+  server->port_ = FreeLoopbackPort();
   if (absl::Status s = server->StartAgain(); !s.ok()) return s;
   return server;
 }
