@@ -37,9 +37,11 @@ ABSL_FLAG(std::string, store, "",
 ABSL_FLAG(std::string, store_password_file, "",
           "File holding the --store database's password (whitespace stripped).");
 ABSL_FLAG(std::string, replica_id, "",
-          "This replica's name in the session leases of a shared --store; default: "
-          "host name, process id and a random suffix.");
-ABSL_FLAG(int64_t, lease_ttl_ms, 6000,
+          "This replica's name in the session leases of a shared --store: must differ "
+          "from every other running replica's (two live processes of one name would "
+          "both own its sessions); default: host name, process id and a random "
+          "suffix, new at every start.");
+ABSL_FLAG(int64_t, lease_ttl_ms, 5000,
           "Shared --store: how long a session lease lasts unless renewed (renewed "
           "every third of it); a replica that dies loses its sessions this long after "
           "its last renewal.");

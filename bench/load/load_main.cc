@@ -1,8 +1,10 @@
-// excite-load: starts excite-server on 127.0.0.1 (a temp data dir), runs
-// --sessions sessions at once for --seconds, each repeating PlanInputs from its
-// pendulum's state, applying the inputs, streaming the transitions (AddData) and
-// calling Predict on a batch of points. Prints, per method, calls, errors, p50
-// and p99 latency, and the server's RSS at start and end. Exit 1 on any error.
+// excite-load: starts excite-server on 127.0.0.1 (a temp data dir) or, with
+// --replicas=N, N replicas on a PostgreSQL server behind HAProxy
+// (tests/support/local_cluster.h), runs --sessions sessions at once for
+// --seconds, each repeating PlanInputs from its pendulum's state, applying the
+// inputs, streaming the transitions (AddData) and calling Predict on a batch of
+// points. Prints, per method, calls, errors, p50 and p99 latency, plans per
+// second, and the servers' RSS at start and end. Exit 1 on any error.
 
 #include <signal.h>
 #include <stdlib.h>
@@ -31,17 +33,27 @@
 #include "absl/synchronization/mutex.h"
 #include "client/excite_client.h"
 #include "server/service/config_text.h"
+#include "tests/support/child_process.h"
+#include "tests/support/local_cluster.h"
 
 ABSL_FLAG(int, sessions, 32, "Concurrent sessions (1..256).");
 ABSL_FLAG(int, seconds, 60, "Duration of the load in seconds (1..600).");
 ABSL_FLAG(int, max_samples, 300, "Samples per session after which AddData stops.");
 ABSL_FLAG(std::string, strategy, "STRATEGY_REC", "Strategy of every session.");
 ABSL_FLAG(std::string, server_binary, EXCITE_SERVER_BINARY, "excite-server to start.");
+ABSL_FLAG(int, replicas, 0,
+          "0: one excite-server on SQLite. N >= 1: N replicas on one PostgreSQL "
+          "server behind HAProxy (deploy/haproxy/haproxy.cfg), as compose.scale.yaml.");
+ABSL_FLAG(std::string, haproxy_config, EXCITE_SOURCE_DIR "/deploy/haproxy/haproxy.cfg",
+          "--replicas: the HAProxy configuration to adapt.");
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
 using excite::client::ExciteClient;
+using excite::testing::ChildProcess;
+using excite::testing::LocalCluster;
+using excite::testing::LocalClusterOptions;
 namespace v1 = excite::v1;
 
 constexpr char kConfig[] = R"pb(
@@ -203,45 +215,69 @@ int Run() {
 
   std::string dir = (std::filesystem::temp_directory_path() / "excite-load-XXXXXX");
   if (mkdtemp(dir.data()) == nullptr) return 1;
-  int out[2];
-  if (pipe(out) != 0) return 1;
   const std::string binary = absl::GetFlag(FLAGS_server_binary);
-  const pid_t pid = fork();
-  if (pid == 0) {
-    dup2(out[1], STDOUT_FILENO);
-    close(out[0]);
-    close(out[1]);
-    const std::string data = "--data_dir=" + dir + "/data";
-    execl(binary.c_str(), binary.c_str(), "--listen=127.0.0.1:0", data.c_str(),
-          "--log_level=warning", static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  close(out[1]);
-  std::string line;
-  char c = 0;
-  while (read(out[0], &c, 1) == 1 && c != '\n') line += c;
-  const std::string prefix = "excite-server listening on ";
-  int result = 1;
-  if (line.rfind(prefix, 0) != 0) {
-    std::fprintf(stderr, "excite-load: server did not start: \"%s\"\n", line.c_str());
-  } else {
-    const std::string address = line.substr(prefix.size());
-    const int64_t rss_start = RssKib(pid);
-    Results results;
-    const Clock::time_point end = Clock::now() + std::chrono::seconds(seconds);
-    std::vector<std::thread> threads;
-    for (int i = 0; i < sessions; ++i) {
-      threads.emplace_back(RunSession, address, *config, i, end,
-                           absl::GetFlag(FLAGS_max_samples), &results);
+  const int replicas = absl::GetFlag(FLAGS_replicas);
+  std::unique_ptr<ChildProcess> single;
+  std::unique_ptr<LocalCluster> cluster;
+  std::string address;
+  if (replicas <= 0) {
+    address = absl::StrCat("127.0.0.1:", excite::testing::FreeLoopbackPort());
+    single = std::make_unique<ChildProcess>(
+        std::vector<std::string>{binary, "--listen=" + address,
+                                 "--data_dir=" + dir + "/data", "--log_level=warning"},
+        dir + "/server.log");
+    const Clock::time_point give_up = Clock::now() + std::chrono::seconds(30);
+    while (single->Log().find("listening on") == std::string::npos) {
+      if (!single->running() || Clock::now() > give_up) {
+        std::fprintf(stderr, "excite-load: server did not start:\n%s\n",
+                     single->Log().c_str());
+        return 1;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
-    for (std::thread& t : threads) t.join();
-    const double elapsed =
-        std::chrono::duration<double>(Clock::now() - end).count() + seconds;
-    const int64_t rss_end = RssKib(pid);
+  } else {
+    LocalClusterOptions options;
+    options.replicas = replicas;
+    options.server_binary = binary;
+    options.haproxy_config = absl::GetFlag(FLAGS_haproxy_config);
+    options.server_flags = {"--log_level=warning"};
+    options.dir = dir;
+    absl::StatusOr<std::unique_ptr<LocalCluster>> started = LocalCluster::Start(options);
+    if (!started.ok()) {
+      std::fprintf(stderr, "excite-load: %s\n", started.status().ToString().c_str());
+      return 1;
+    }
+    cluster = *std::move(started);
+    address = cluster->proxy_address();
+  }
+  const auto server_rss = [&]() {
+    if (single != nullptr) return RssKib(single->pid());
+    int64_t total = 0;
+    for (int i = 0; i < cluster->replicas(); ++i)
+      total += RssKib(cluster->replica(i)->pid());
+    return total;
+  };
+  const int64_t rss_start = server_rss();
+  Results results;
+  const Clock::time_point end = Clock::now() + std::chrono::seconds(seconds);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < sessions; ++i) {
+    threads.emplace_back(RunSession, address, *config, i, end,
+                         absl::GetFlag(FLAGS_max_samples), &results);
+  }
+  for (std::thread& t : threads) t.join();
+  const double elapsed =
+      std::chrono::duration<double>(Clock::now() - end).count() + seconds;
+  const int64_t rss_end = server_rss();
+  int result = 1;
+  {
     absl::MutexLock lock(&results.mu);
     int64_t errors = 0;
-    std::printf("excite-load: %d sessions, %.1f s, strategy %s\n", sessions, elapsed,
-                absl::GetFlag(FLAGS_strategy).c_str());
+    std::printf("excite-load: %d sessions, %.1f s, strategy %s, %s\n", sessions, elapsed,
+                absl::GetFlag(FLAGS_strategy).c_str(),
+                replicas <= 0
+                    ? "one server (SQLite)"
+                    : absl::StrCat(replicas, " replicas (PostgreSQL, HAProxy)").c_str());
     std::printf("%-14s %8s %7s %10s %10s\n", "method", "calls", "errors", "p50_ms",
                 "p99_ms");
     for (const auto& [method, v] : results.latencies_ms) {
@@ -250,17 +286,22 @@ int Run() {
       std::printf("%-14s %8zu %7lld %10.2f %10.2f\n", method.c_str(), v.size(),
                   static_cast<long long>(e), Percentile(v, 0.5), Percentile(v, 0.99));
     }
+    std::printf("plans per second: %.1f\n",
+                static_cast<double>(results.latencies_ms["PlanInputs"].size()) / elapsed);
     for (const std::string& e : results.first_errors) {
       std::printf("error: %s\n", e.c_str());
     }
-    std::printf("server RSS: start %lld KiB, end %lld KiB\n",
+    std::printf("server RSS (all replicas): start %lld KiB, end %lld KiB\n",
                 static_cast<long long>(rss_start), static_cast<long long>(rss_end));
     std::printf("errors: %lld\n", static_cast<long long>(errors));
     result = errors == 0 ? 0 : 1;
   }
-  close(out[0]);
-  kill(pid, SIGTERM);
-  waitpid(pid, nullptr, 0);
+  cluster.reset();
+  if (single != nullptr) {
+    single->Signal(SIGTERM);
+    single->Wait(std::chrono::seconds(10));
+    single.reset();
+  }
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
   return result;
@@ -271,7 +312,7 @@ int Run() {
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage(
       "excite-load [--sessions=32] [--seconds=60] [--max_samples=300] "
-      "[--strategy=STRATEGY_REC]");
+      "[--strategy=STRATEGY_REC] [--replicas=N]");
   absl::ParseCommandLine(argc, argv);
   return Run();
 }

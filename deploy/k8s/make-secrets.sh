@@ -2,6 +2,7 @@
 # Makes the files kustomization.yaml's secretGenerator reads, in deploy/k8s/secrets/
 # (git-ignored; keep them, or your own, out of version control):
 #   token             a random bearer token (clients send it; EXCITE_AUTH_TOKEN)
+#   db-password       a random password of the PostgreSQL user (deploy/k8s/scale)
 #   ca.crt            a private CA that clients trust (--tls_ca)
 #   tls.crt, tls.key  the server's certificate, signed by that CA, for the Services'
 #                     names in NAMESPACE and for 127.0.0.1 (the probes)
@@ -26,6 +27,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
 openssl rand -hex 32 > token
+openssl rand -hex 24 > db-password
 openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -days 825 \
   -subj "/CN=excite CA" -keyout "$work/ca.key" -out ca.crt 2>"$work/log"
 svc="excite.${namespace}.svc"
@@ -38,5 +40,5 @@ openssl x509 -req -in "$work/server.csr" -CA ca.crt -CAkey "$work/ca.key" \
     printf 'subjectAltName=%s\nextendedKeyUsage=serverAuth\n' "$san") \
   -out tls.crt 2>>"$work/log"
 chmod 0644 ca.crt tls.crt
-echo "make-secrets: wrote token, ca.crt, tls.crt, tls.key to $dir (namespace $namespace);"
+echo "make-secrets: wrote token, db-password, ca.crt, tls.crt, tls.key to $dir (namespace $namespace);"
 echo "  the CA's key is not kept: make new files to issue another certificate."

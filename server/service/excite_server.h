@@ -33,7 +33,7 @@ struct ServerOptions {
   // Shared store: how long a lease lasts unless renewed (a dead replica's
   // sessions are served again within it), and how long an unused session stays
   // loaded (see RegistryOptions).
-  std::chrono::milliseconds lease_ttl{6000};
+  std::chrono::milliseconds lease_ttl{5000};
   std::chrono::milliseconds session_idle_release{std::chrono::minutes(5)};
   // Largest message received or sent.
   int max_message_mb = 64;

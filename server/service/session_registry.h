@@ -32,7 +32,7 @@ struct RegistryOptions {
   MemoryBudget* budget = nullptr;
   // Shared stores only. The lease's duration (the store's); leases are renewed
   // every third of it and trusted here until a sixth of it before they end.
-  std::chrono::milliseconds lease_ttl{6000};
+  std::chrono::milliseconds lease_ttl{5000};
   // A session no call used for this long is released (its memory freed, its
   // lease given up); 0: never.
   std::chrono::milliseconds idle_release{std::chrono::minutes(5)};

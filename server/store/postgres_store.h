@@ -27,7 +27,7 @@ struct PostgresStoreOptions {
   // How long a lease lasts unless renewed (the registry renews at a third of
   // it). A replica that dies loses its sessions this long after its last
   // renewal.
-  std::chrono::milliseconds lease_ttl{6000};
+  std::chrono::milliseconds lease_ttl{5000};
   // Connections kept open (each serves one call at a time).
   int connections = 4;
   // How long Open keeps trying to reach the server before it gives up.

@@ -19,6 +19,11 @@
 #  8. deploy/compose.yaml with podman-compose: the server and both plant clients
 #     (10 samples each); both plants exit 0 and leave their summaries on the named
 #     volume; the server answers on the published host port; down -v.
+#  9. deploy/compose.scale.yaml: PostgreSQL and HAProxy images from Debian's
+#     packages, three replicas, two plants through the proxy; the replica that
+#     serves a plant's session is killed (SIGKILL) mid-exploration; both plants
+#     still finish with every sample stored; ListSessions through the proxy sees
+#     both sessions; down -v.
 #
 # Environment: EXCITE_BASE_IMAGE (default localhost/debian:bookworm),
 # EXCITE_IMAGE (default localhost/excite:ci), EXCITE_SMOKE_SAMPLES (default 30),
@@ -54,10 +59,22 @@ compose() {
   EXCITE_IMAGE="$image" EXCITE_SAMPLES=10 EXCITE_PORT="${host_port:-0}" \
     podman-compose -p "$tag" -f deploy/compose.yaml "$@"
 }
+scale() {
+  EXCITE_IMAGE="$image" EXCITE_POSTGRES_IMAGE="$image-postgres" \
+    EXCITE_HAPROXY_IMAGE="$image-haproxy" EXCITE_SAMPLES=40 \
+    EXCITE_PORT="${scale_port:-0}" EXCITE_DB_PASSWORD="smoke-$$-$RANDOM" \
+    podman-compose -p "$tag-scale" -f deploy/compose.scale.yaml "$@"
+}
 cleanup() {
   if [ -n "${compose_up:-}" ]; then
     podman rm -f -v "${tag}_pendulum-rec_1" "${tag}_pendulum-pa_1" >/dev/null 2>&1 || true
     compose down -v >/dev/null 2>&1 || true
+  fi
+  if [ -n "${scale_up:-}" ]; then
+    scale logs >"$out/scale-logs.txt" 2>&1 || true
+    podman rm -f -v "${tag}-scale_pendulum-rec_1" "${tag}-scale_unicycle-rec_1" \
+      >/dev/null 2>&1 || true
+    scale down -v >/dev/null 2>&1 || true
   fi
   podman rm -f -t 0 "$server" "$server-2" >/dev/null 2>&1 || true
   podman volume rm -f "$vol" >/dev/null 2>&1 || true
@@ -211,3 +228,50 @@ podman rm -f -v "${tag}_pendulum-rec_1" "${tag}_pendulum-pa_1" >/dev/null 2>&1 |
 compose down -v >>"$out/compose.log" 2>&1 || { cat "$out/compose.log" >&2; fail "compose down failed"; }
 compose_up=
 log "compose stack: server and two plants ran, summaries on the volume; PASS"
+
+# 9. The scaled-out stack, with one replica killed while the plants explore.
+for part in postgres haproxy; do
+  podman build --format docker --build-arg BASE="$base" -f "deploy/$part/Containerfile" \
+    -t "$image-$part" "deploy/$part" >"$out/build-$part.log" 2>&1 ||
+    { tail -20 "$out/build-$part.log" >&2; fail "podman build of deploy/$part failed"; }
+done
+scale_port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+scale_up=1
+scale up -d >"$out/scale.log" 2>&1 || { cat "$out/scale.log" >&2; fail "compose.scale up failed"; }
+cli() {
+  podman run --rm --no-healthcheck --network host "$image" \
+    excite --server="127.0.0.1:$scale_port" "$@"
+}
+# Wait until both sessions hold samples, then kill the replica serving one.
+victim=""
+for _ in $(seq 1 120); do
+  owner=$(podman exec "${tag}-scale_postgres_1" psql -U excite -d excite -tA -c \
+    "SELECT owner FROM sessions WHERE owner IS NOT NULL ORDER BY id LIMIT 1" 2>/dev/null ||
+    true)
+  held=$(podman exec "${tag}-scale_postgres_1" psql -U excite -d excite -tA -c \
+    "SELECT count(*) FROM samples" 2>/dev/null || echo 0)
+  if [ -n "$owner" ] && [ "${held:-0}" -ge 20 ]; then
+    victim=$(echo "$owner" | cut -d- -f1-2)  # owner: excite-N-PID-SUFFIX
+    break
+  fi
+  sleep 1
+done
+[ -n "$victim" ] || fail "compose.scale: no session got samples"
+podman kill --signal KILL "${tag}-scale_${victim}_1" >/dev/null
+log "compose.scale: killed $victim (it served a session) at $held stored samples"
+for plant in pendulum-rec unicycle-rec; do
+  code=$(timeout 400 podman wait "${tag}-scale_${plant}_1") ||
+    fail "compose.scale: $plant did not finish"
+  if [ "$code" != 0 ]; then
+    podman logs "${tag}-scale_${plant}_1" >&2 || true
+    fail "compose.scale: $plant exited with $code"
+  fi
+done
+cli sessions list >"$out/scale-list.txt" 2>&1 ||
+  { cat "$out/scale-list.txt" >&2; fail "compose.scale: sessions list through the proxy"; }
+[ "$(grep -c ' samples=40 ' "$out/scale-list.txt" || true)" = 2 ] ||
+  fail "compose.scale: want two sessions of 40 samples: $(cat "$out/scale-list.txt")"
+podman rm -f -v "${tag}-scale_pendulum-rec_1" "${tag}-scale_unicycle-rec_1" >/dev/null 2>&1 || true
+scale down -v >>"$out/scale.log" 2>&1 || { cat "$out/scale.log" >&2; fail "compose.scale down failed"; }
+scale_up=
+log "compose.scale: three replicas, one killed mid-run, both plants finished; PASS"

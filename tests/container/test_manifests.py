@@ -347,3 +347,172 @@ def test_server_probe_and_plant_work_with_the_generated_secrets(tmp_path):
         process.terminate()
         process.wait(timeout=30)
         log.close()
+
+
+# --- Scaled out: compose.scale.yaml, deploy/haproxy, deploy/k8s/scale --------------
+
+SCALE = K8S / "scale"
+HAPROXY = DEPLOY / "haproxy"
+PROXY_PORT = 50050
+
+
+def haproxy_lines(path):
+    """The configuration's lines without comments and blank lines."""
+    lines = []
+    for line in path.read_text().split("\n"):
+        code = line.split("#", 1)[0].rstrip()
+        if code.strip():
+            lines.append(code)
+    return lines
+
+
+def test_haproxy_health_check_is_the_generator_s_and_expects_serving():
+    request = subprocess.run(["/usr/bin/python3", str(HAPROXY / "grpc_health_check.py")],
+                             check=True, capture_output=True, text=True).stdout.strip()
+    for config in (HAPROXY / "haproxy.cfg", SCALE / "haproxy.cfg"):
+        lines = [l.strip() for l in haproxy_lines(config)]
+        assert f"tcp-check send-binary {request}" in lines, config
+        assert "tcp-check expect binary 00000000020801" in lines, config  # SERVING
+        assert "balance hdr(x-excite-session)" in lines and "hash-type consistent" in lines
+    # The header the proxy hashes is the one both clients send.
+    assert 'kSessionHeader[] = "x-excite-session"' in (REPO / "client" / "excite_client.h").read_text()
+    assert 'SESSION_HEADER = "x-excite-session"' in (
+        REPO / "client" / "python" / "excite" / "_common.py").read_text()
+
+
+def test_kubernetes_haproxy_config_differs_only_in_bind_and_servers():
+    def shared(path):
+        return [l for l in haproxy_lines(path)
+                if not l.strip().startswith(("bind ", "server ", "server-template "))]
+    assert shared(HAPROXY / "haproxy.cfg") == shared(SCALE / "haproxy.cfg")
+    assert any(l.strip() == f"bind :{PROXY_PORT} proto h2" for l in haproxy_lines(HAPROXY / "haproxy.cfg"))
+
+
+def test_compose_scale_stack():
+    compose = yaml.safe_load((DEPLOY / "compose.scale.yaml").read_text())
+    services = compose["services"]
+    replicas = {n: s for n, s in services.items() if n.startswith("excite-")}
+    assert len(replicas) == 3
+    postgres, proxy = services["postgres"], services["proxy"]
+    for name, part in (("postgres", postgres), ("proxy", proxy)):
+        context = DEPLOY / part["build"]["context"]
+        assert (context / part["build"]["dockerfile"]).is_file(), name
+    # The HAProxy config names the replicas by their service names and port.
+    servers = [l.split()[1:3] for l in haproxy_lines(HAPROXY / "haproxy.cfg") if l.strip().startswith("server ")]
+    assert servers == [[n, f"{n}:{PORT}"] for n in sorted(replicas)]
+    assert any(p.endswith(f":{PROXY_PORT}") for p in proxy["ports"])
+    for name, replica in replicas.items():
+        env = replica["environment"]
+        store = env["FLAGS_store"]
+        assert store.startswith("postgresql://") and ":" not in store.split("@")[0][len("postgresql://"):], \
+            f"{name}: no password in the URL"
+        assert store.split("@")[1].startswith("postgres:5432/"), name
+        assert "PGPASSWORD" in env, f"{name}: the password from the environment"
+        assert set(env) - {"PGPASSWORD"} <= {f"FLAGS_{f}" for f in image_env_flags()}, name
+        assert replica["image"] == replicas["excite-1"]["image"]
+        assert replica["healthcheck"]["test"][1] == "excite-health"
+        assert "postgres" in replica["depends_on"]
+        assert "FLAGS_replica_id" not in env, "ids must be unique per process: keep the default"
+    assert postgres["environment"]["POSTGRES_PASSWORD"] == replicas["excite-1"]["environment"]["PGPASSWORD"]
+    plants = {n: s for n, s in services.items() if n not in replicas and n not in ("postgres", "proxy")}
+    assert len(plants) >= 2
+    for name, plant in plants.items():
+        command = plant["command"]
+        assert command[0] == "excite-sim", name
+        assert flag_value(command, "server") == f"proxy:{PROXY_PORT}", name
+        assert int(flag_value(command, "retry_unavailable_s")) >= 20, name
+        config = flag_value(command, "config")
+        assert (REPO / "sim" / "configs" / config[len(CONFIG_DIR):]).is_file(), config
+
+
+def scale_documents():
+    kustomization = yaml.safe_load((SCALE / "kustomization.yaml").read_text())
+    docs = []
+    for name in kustomization["resources"]:
+        docs += [d for d in yaml.safe_load_all((SCALE / name).read_text()) if d]
+    return kustomization, docs
+
+
+@pytest.mark.parametrize("path", sorted(p.name for p in SCALE.glob("*.yaml")))
+def test_every_scale_manifest_is_listed_in_its_kustomization(path):
+    kustomization, _ = scale_documents()
+    assert path == "kustomization.yaml" or path in kustomization["resources"]
+
+
+def test_scale_secrets_are_made_by_make_secrets(tmp_path):
+    kustomization, _ = scale_documents()
+    generated = {g["name"]: dict(f.split("=", 1) for f in g["files"]) for g in kustomization["secretGenerator"]}
+    assert set(generated) == {"excite-db", "excite-auth", "excite-tls"}
+    out = tmp_path / "secrets"
+    subprocess.run(["bash", str(K8S / "make-secrets.sh"), "ns1", str(out)], check=True, capture_output=True)
+    for files in generated.values():
+        for source in files.values():
+            assert (out / source[len("secrets/"):]).stat().st_size > 0, source
+    assert "/deploy/k8s/scale/secrets/" in (REPO / ".gitignore").read_text().split()
+    images = {i["name"] for i in kustomization["images"]}
+    _, docs = scale_documents()
+    for doc in docs:
+        pod = doc["spec"].get("template", {}).get("spec")
+        if pod:
+            for c in pod.get("containers", []) + pod.get("initContainers", []):
+                assert c["image"] in images, (doc["metadata"]["name"], c["image"])
+
+
+def test_scale_replicas_store_proxy_and_job_fit_together():
+    kustomization, docs = scale_documents()
+    deployment = one(docs, "Deployment", "excite-replicas")
+    assert deployment["spec"]["replicas"] >= 2
+    pod = deployment["spec"]["template"]["spec"]
+    labels = deployment["spec"]["template"]["metadata"]["labels"]
+    (server,) = pod["containers"]
+    env = {e["name"]: e["value"] for e in server["env"]}
+    assert {n[len("FLAGS_"):] for n in env} <= image_env_flags()
+    assert "FLAGS_replica_id" not in env
+    store = env["FLAGS_store"]
+    assert store.startswith("postgresql://excite@") and "password" not in store
+    postgres_service = one(docs, "Service", "excite-postgres")
+    assert store.split("@")[1].split(":")[0] == postgres_service["metadata"]["name"]
+    mounts = {m["mountPath"]: m["name"] for m in server["volumeMounts"]}
+    volumes = {v["name"]: v for v in pod["volumes"]}
+    assert secret_file(env["FLAGS_store_password_file"], mounts, volumes) == ("excite-db", "password")
+    assert secret_file(env["FLAGS_auth_token_file"], mounts, volumes) == ("excite-auth", "token")
+    assert server["securityContext"]["readOnlyRootFilesystem"] is True
+    assert pod["securityContext"]["fsGroup"] == UID
+    for probe in ("livenessProbe", "readinessProbe", "startupProbe"):
+        assert server[probe]["exec"]["command"][0] == "excite-health", probe
+    # The proxy finds the replicas through the headless Service's DNS name.
+    headless = one(docs, "Service", "excite-replicas")
+    assert headless["spec"]["clusterIP"] == "None"
+    assert headless["spec"]["selector"].items() <= labels.items()
+    template = [l for l in haproxy_lines(SCALE / "haproxy.cfg") if l.strip().startswith("server-template")]
+    assert len(template) == 1 and f'"excite-replicas.${{POD_NAMESPACE}}.svc.cluster.local:{PORT}"' in template[0]
+    proxy = one(docs, "Deployment", "excite-proxy")
+    proxy_pod = proxy["spec"]["template"]["spec"]
+    (haproxy,) = proxy_pod["containers"]
+    assert {"name": "POD_NAMESPACE", "valueFrom": {"fieldRef": {"fieldPath": "metadata.namespace"}}} in haproxy["env"]
+    proxy_mounts = {m["mountPath"]: m["name"] for m in haproxy["volumeMounts"]}
+    proxy_volumes = {v["name"]: v for v in proxy_pod["volumes"]}
+    config_path = haproxy["command"][-1]
+    config_dir, config_name = config_path.rsplit("/", 1)
+    config_volume = proxy_volumes[proxy_mounts[config_dir]]
+    assert config_volume["configMap"]["name"] == "excite-haproxy"
+    assert {"name": "excite-haproxy", "files": [config_name]} in kustomization["configMapGenerator"]
+    bind = [l.strip() for l in haproxy_lines(SCALE / "haproxy.cfg") if l.strip().startswith("bind ")]
+    assert bind == [f"bind :{PROXY_PORT} ssl crt /etc/haproxy/tls/excite.pem alpn h2"]
+    tls = proxy_volumes[proxy_mounts["/etc/haproxy/tls"]]["secret"]
+    assert tls["secretName"] == "excite-tls"
+    assert {i["path"]: i["key"] for i in tls["items"]} == {"excite.pem": "tls.crt", "excite.pem.key": "tls.key"}
+    assert {"name": "grpc", "containerPort": PROXY_PORT, "protocol": "TCP"} in haproxy["ports"]
+    client_service = one(docs, "Service", "excite")
+    assert client_service["spec"]["selector"].items() <= proxy["spec"]["template"]["metadata"]["labels"].items()
+    assert client_service["spec"]["ports"][0]["port"] == PORT
+    job = one(docs, "Job")
+    (sim,) = job["spec"]["template"]["spec"]["containers"]
+    assert flag_value(sim["command"], "server") == f"excite:{PORT}"
+    assert int(flag_value(sim["command"], "retry_unavailable_s")) >= 20
+    store_set = one(docs, "StatefulSet", "excite-postgres")
+    (pg,) = store_set["spec"]["template"]["spec"]["containers"]
+    pg_env = {e["name"]: e["value"] for e in pg["env"]}
+    pg_mounts = {m["mountPath"]: m["name"] for m in pg["volumeMounts"]}
+    pg_volumes = {v["name"]: v for v in store_set["spec"]["template"]["spec"]["volumes"]}
+    assert secret_file(pg_env["POSTGRES_PASSWORD_FILE"], pg_mounts, pg_volumes) == ("excite-db", "password")
