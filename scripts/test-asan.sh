@@ -20,5 +20,6 @@ cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$jobs"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+export LSAN_OPTIONS="suppressions=$PWD/scripts/lsan.supp:print_suppressions=0"
 ctest --preset asan -j 2 -LE "container|fuzz|benchmark|static|install|fault" \
   -E "^EndToEndTest.PendulumRecReducesRmse$" "$@"

@@ -120,6 +120,11 @@ absl::Status StatusFromException(const std::exception& e, const std::string& loc
       absl::StrCat("PostgreSQL at ", location, ": unexpected error: ", what));
 }
 
+struct PostgresConnections::Connection {
+  explicit Connection(const std::string& conninfo) : connection(conninfo) {}
+  pqxx::connection connection;
+};
+
 PostgresConnections::PostgresConnections(PostgresTarget target, int size,
                                          std::vector<std::string> settings)
     : target_(std::move(target)), settings_(std::move(settings)) {
@@ -150,16 +155,16 @@ absl::Status PostgresConnections::RunOnce(
   absl::Status status;
   // Only a connection that was open before this call can have gone stale (a
   // server restart closes them all); a failure to open one is not retried.
-  const bool reused = slot != nullptr && slot->is_open();
+  const bool reused = slot != nullptr && slot->connection.is_open();
   try {
     if (!reused) {
-      slot = std::make_unique<pqxx::connection>(target_.conninfo);
+      slot = std::make_unique<Connection>(target_.conninfo);
       for (const std::string& sql : settings_) {
-        pqxx::nontransaction setup(*slot);
+        pqxx::nontransaction setup(slot->connection);
         setup.exec(sql);
       }
     }
-    status = body(*slot);
+    status = body(slot->connection);
   } catch (const std::exception& e) {
     status = StatusFromException(e, target_.location);
     if (dynamic_cast<const pqxx::broken_connection*>(&e) != nullptr ||

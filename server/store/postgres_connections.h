@@ -62,8 +62,10 @@ class PostgresConnections {
   absl::Status Run(absl::FunctionRef<absl::Status(pqxx::connection_base&)> body);
 
  private:
-  // A connection slot: nullptr until opened (or after it broke).
-  using Slot = std::unique_ptr<pqxx::connection_base>;
+  // A connection slot: nullptr until opened (or after it broke). (A wrapper:
+  // libpqxx 6's connection_base has no virtual destructor.)
+  struct Connection;
+  using Slot = std::unique_ptr<Connection>;
   absl::Status RunOnce(absl::FunctionRef<absl::Status(pqxx::connection_base&)> body,
                        bool* connection_lost);
 
