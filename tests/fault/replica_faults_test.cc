@@ -231,9 +231,10 @@ TEST_F(ReplicaFaultsTest, KillNineOfOneReplicaLosesNothingAndItsSessionsMove) {
   std::cout << "SIGKILL of " << victim_id << " (" << moved.size()
             << " sessions): all served again after " << slowest_s << " s\n";
   EXPECT_LT(slowest_s, std::chrono::duration<double>(kServedAgainBound).count());
+  // The replica comes back while the plants explore: the proxy routes its
+  // sessions to it again, and the replicas that took them hand them back.
+  ASSERT_TRUE(cluster_->StartReplica(victim).ok());
   ExpectNothingLost();
-  const std::map<std::string, int> after = Owners();
-  EXPECT_EQ(after.count(victim_id) ? after.at(victim_id) : 0, 0);
 }
 
 TEST_F(ReplicaFaultsTest, PostgresRestartUnderLoadIsUnavailableThenRecovers) {
