@@ -28,6 +28,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/mutex.h"
+#include "bench/load/load_stats.h"
 #include "client/excite_client.h"
 #include "server/service/config_text.h"
 #include "tests/support/local_cluster.h"
@@ -41,6 +42,9 @@ ABSL_FLAG(std::string, haproxy_config, EXCITE_SOURCE_DIR "/deploy/haproxy/haprox
           "The HAProxy configuration to adapt.");
 
 namespace {
+
+using excite::bench::Percentile;
+using excite::bench::RssKib;
 
 using Clock = std::chrono::steady_clock;
 namespace v1 = excite::v1;
@@ -97,29 +101,6 @@ struct Latencies {
     }
   }
 };
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1,
-                    static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5))];
-}
-
-int64_t RssKib(pid_t pid) {
-  std::ifstream in(absl::StrCat("/proc/", pid, "/status"));
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) {
-      int64_t kib = -1;
-      std::string digits;
-      for (char c : line) {
-        if (c >= '0' && c <= '9') digits += c;
-      }
-      return absl::SimpleAtoi(digits, &kib) ? kib : -1;
-    }
-  }
-  return -1;
-}
 
 // Runs `work(i)` for i in [0, n) on `workers` threads.
 template <typename Work>

@@ -31,6 +31,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/mutex.h"
+#include "bench/load/load_stats.h"
 #include "client/excite_client.h"
 #include "server/service/config_text.h"
 #include "tests/support/child_process.h"
@@ -48,6 +49,9 @@ ABSL_FLAG(std::string, haproxy_config, EXCITE_SOURCE_DIR "/deploy/haproxy/haprox
           "--replicas: the HAProxy configuration to adapt.");
 
 namespace {
+
+using excite::bench::Percentile;
+using excite::bench::RssKib;
 
 using Clock = std::chrono::steady_clock;
 using excite::client::ExciteClient;
@@ -171,30 +175,6 @@ void RunSession(const std::string& address, const v1::SessionConfig& config, int
     start = Clock::now();
     results->Add("Predict", start, client->Predict(predict).status());
   }
-}
-
-// VmRSS of `pid` in KiB, -1 if unreadable.
-int64_t RssKib(pid_t pid) {
-  std::ifstream in(absl::StrCat("/proc/", pid, "/status"));
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) {
-      int64_t kib = -1;
-      std::string digits;
-      for (char c : line) {
-        if (c >= '0' && c <= '9') digits += c;
-      }
-      return absl::SimpleAtoi(digits, &kib) ? kib : -1;
-    }
-  }
-  return -1;
-}
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  return v[i];
 }
 
 int Run() {

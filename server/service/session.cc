@@ -103,9 +103,10 @@ bool Session::IdleFor(std::chrono::nanoseconds duration) const {
 absl::Status Session::StoreWriteFailed(const absl::Status& status,
                                        absl::string_view what) {
   if (absl::IsNotFound(status)) return NotDeleted(name_);
-  // The lease was lost or the write's outcome is unknown: this copy can no
-  // longer be trusted to match the store.
-  if (absl::IsUnavailable(status)) MarkStale();
+  // A shared store: the lease was lost or the write's outcome is unknown, so
+  // this copy can no longer be trusted to match the store (the registry loads it
+  // anew). SQLite's failed writes are rolled back: the copy stays right.
+  if (absl::IsUnavailable(status) && store_->shared()) MarkStale();
   return absl::Status(status.code(),
                       absl::StrCat(what, " of session ", name_, ": ", status.message()));
 }

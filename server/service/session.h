@@ -203,7 +203,7 @@ class Session {
   // newly stored samples to the GP. The result counts this batch only. NOT_FOUND
   // if the session was deleted, RESOURCE_EXHAUSTED (nothing stored) if the
   // session would exceed `max_samples` or the memory budget; UNAVAILABLE from
-  // the store (lease lost, store unreachable) makes the session stale.
+  // a shared store (lease lost, store unreachable) makes the session stale.
   absl::StatusOr<AddResult> AddSamples(const std::vector<store::SampleRecord>& batch,
                                        int64_t max_samples);
 
@@ -262,8 +262,8 @@ class Session {
       const store::SessionRecord& record, v1::SessionConfig config,
       const std::vector<store::SampleRecord>& samples, absl::Status damage,
       store::SessionStore* store, int64_t fence);
-  // A store write's failure as the caller gets it; UNAVAILABLE (the lease lost,
-  // or an outcome unknown) also makes the session stale.
+  // A store write's failure as the caller gets it; UNAVAILABLE from a shared
+  // store (the lease lost, or an outcome unknown) also makes the session stale.
   absl::Status StoreWriteFailed(const absl::Status& status, absl::string_view what);
 
   // NOT_FOUND once deleted, UNAVAILABLE once stale, DATA_LOSS if damaged.

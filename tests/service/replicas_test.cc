@@ -14,7 +14,7 @@
 #include "gtest/gtest.h"
 #include "server/service/excite_server.h"
 #include "tests/service/service_fixture.h"
-#include "tests/support/postgres_server.h"
+#include "tests/support/postgres_environment.h"
 
 namespace excite::testing {
 namespace {
@@ -42,23 +42,15 @@ std::vector<v1::Transition> Batch(int64_t first, int64_t count) {
   return batch;
 }
 
+const PostgresEnvironment* const kPostgres = PostgresEnvironment::Register();
+
 class ReplicasTest : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    absl::StatusOr<std::unique_ptr<PostgresServer>> started = PostgresServer::Start();
-    ASSERT_TRUE(started.ok()) << started.status();
-    postgres_ = started->release();
-  }
-  static void TearDownTestSuite() {
-    delete postgres_;
-    postgres_ = nullptr;
-  }
-
   void SetUp() override {
+    postgres_ = PostgresEnvironment::server();
     ASSERT_NE(postgres_, nullptr);
-    static int next = 0;
-    dbname_ = absl::StrCat("replicas_", next++);
-    ASSERT_TRUE(postgres_->CreateDatabase(dbname_).ok());
+    dbname_ = PostgresEnvironment::NewDatabase("replicas");
+    ASSERT_FALSE(dbname_.empty());
     Start(0);
     Start(1);
   }
@@ -91,13 +83,11 @@ class ReplicasTest : public ::testing::Test {
     return status;
   }
 
-  static PostgresServer* postgres_;
+  PostgresServer* postgres_ = nullptr;
   std::string dbname_;
   std::unique_ptr<service::ExciteServer> servers_[2];
   std::unique_ptr<client::ExciteClient> clients_[2];
 };
-
-PostgresServer* ReplicasTest::postgres_ = nullptr;
 
 TEST_F(ReplicasTest, ASessionIsServedByOneReplicaAndMovesWhenAskedOnceIdle) {
   ASSERT_TRUE(clients_[0]->CreateSession(PendulumConfig(), "moving").ok());

@@ -14,7 +14,8 @@
 #include "absl/strings/str_cat.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
-#include "tests/support/postgres_server.h"
+#include "tests/store/store_test_records.h"
+#include "tests/support/postgres_environment.h"
 
 namespace excite::store {
 namespace {
@@ -22,42 +23,19 @@ namespace {
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-SampleRecord Sample(int64_t sequence) {
-  SampleRecord s;
-  s.sequence = sequence;
-  s.state = {0.5, -1.5};
-  s.input = {2.0};
-  s.next_state = {0.25, 1.0};
-  s.timestamp_s = 1700000000.5;
-  return s;
-}
+using ::excite::store::testing::Sample;
+using ::excite::store::testing::Session;
 
-SessionRecord Session(const std::string& id) {
-  SessionRecord r;
-  r.id = id;
-  r.config = "config";
-  r.created_unix_ms = 1;
-  return r;
-}
+const excite::testing::PostgresEnvironment* const kPostgres =
+    excite::testing::PostgresEnvironment::Register();
 
 class PostgresStoreTest : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    absl::StatusOr<std::unique_ptr<excite::testing::PostgresServer>> started =
-        excite::testing::PostgresServer::Start();
-    ASSERT_TRUE(started.ok()) << started.status();
-    server_ = started->release();
-  }
-  static void TearDownTestSuite() {
-    delete server_;
-    server_ = nullptr;
-  }
-
   void SetUp() override {
+    server_ = excite::testing::PostgresEnvironment::server();
     ASSERT_NE(server_, nullptr);
-    static std::atomic<int> next{0};
-    dbname_ = absl::StrCat("pgtest_", next++);
-    ASSERT_TRUE(server_->CreateDatabase(dbname_).ok());
+    dbname_ = excite::testing::PostgresEnvironment::NewDatabase("pgtest");
+    ASSERT_FALSE(dbname_.empty());
   }
 
   PostgresStoreOptions Options(const std::string& owner,
@@ -85,11 +63,9 @@ class PostgresStoreTest : public ::testing::Test {
     return samples.ok() ? samples->size() : 0;
   }
 
-  static excite::testing::PostgresServer* server_;
+  excite::testing::PostgresServer* server_ = nullptr;
   std::string dbname_;
 };
-
-excite::testing::PostgresServer* PostgresStoreTest::server_ = nullptr;
 
 TEST_F(PostgresStoreTest, OneOwnerAtATimeAndTheOtherIsAskedToHandOver) {
   std::unique_ptr<PostgresStore> a = Open("replica-a");

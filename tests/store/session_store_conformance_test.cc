@@ -3,7 +3,6 @@
 // database per test. Backend-specific behaviour (SQLite's migration and file
 // lock, PostgreSQL's leases between replicas) has its own tests.
 
-#include <atomic>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -16,7 +15,8 @@
 #include "gtest/gtest.h"
 #include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
-#include "tests/support/postgres_server.h"
+#include "tests/store/store_test_records.h"
+#include "tests/support/postgres_environment.h"
 #include "tests/support/temp_dir.h"
 
 namespace excite::store {
@@ -25,23 +25,8 @@ namespace {
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-SampleRecord Sample(int64_t sequence) {
-  SampleRecord s;
-  s.sequence = sequence;
-  s.state = {0.1 * static_cast<double>(sequence), -1.5};
-  s.input = {2.0 + static_cast<double>(sequence)};
-  s.next_state = {0.25, 1e-300};
-  s.timestamp_s = 1700000000.5 + static_cast<double>(sequence);
-  return s;
-}
-
-SessionRecord Session(const std::string& id) {
-  SessionRecord r;
-  r.id = id;
-  r.config = std::string("\x08\x02\x10\x01\0bytes", 10);  // arbitrary bytes with a NUL
-  r.created_unix_ms = 1700000000123;
-  return r;
-}
+using ::excite::store::testing::Sample;
+using ::excite::store::testing::Session;
 
 // Opens the backend's store; Reopen() closes it and opens it again on the same
 // data (durability).
@@ -63,45 +48,22 @@ class SqliteBackend : public Backend {
   excite::testing::TempDir dir_;
 };
 
-// One server for the whole test binary (stopped at its end); a new database per
-// backend.
-class PostgresEnvironment : public ::testing::Environment {
- public:
-  void SetUp() override {
-    absl::StatusOr<std::unique_ptr<excite::testing::PostgresServer>> started =
-        excite::testing::PostgresServer::Start();
-    ASSERT_TRUE(started.ok()) << started.status();
-    server = *std::move(started);
-  }
-  void TearDown() override { server.reset(); }
-
-  static std::unique_ptr<excite::testing::PostgresServer> server;
-};
-
-std::unique_ptr<excite::testing::PostgresServer> PostgresEnvironment::server;
-
-excite::testing::PostgresServer* SharedPostgres() {
-  return PostgresEnvironment::server.get();
-}
-
-const ::testing::Environment* const kPostgres =
-    ::testing::AddGlobalTestEnvironment(new PostgresEnvironment);
+const excite::testing::PostgresEnvironment* const kPostgres =
+    excite::testing::PostgresEnvironment::Register();
 
 class PostgresBackend : public Backend {
  public:
-  PostgresBackend() {
-    static std::atomic<int> next{0};
-    dbname_ = absl::StrCat("conformance_", next++);
-    if (SharedPostgres() != nullptr) {
-      created_ = SharedPostgres()->CreateDatabase(dbname_);
-    }
-  }
+  PostgresBackend()
+      : dbname_(excite::testing::PostgresEnvironment::NewDatabase("conformance")) {}
   absl::StatusOr<std::unique_ptr<SessionStore>> Open() override {
-    if (SharedPostgres() == nullptr) return absl::FailedPreconditionError("no server");
-    if (!created_.ok()) return created_;
+    excite::testing::PostgresServer* server =
+        excite::testing::PostgresEnvironment::server();
+    if (server == nullptr || dbname_.empty()) {
+      return absl::FailedPreconditionError("no PostgreSQL database");
+    }
     PostgresStoreOptions options;
-    options.url = SharedPostgres()->url(dbname_);
-    options.password = SharedPostgres()->password();
+    options.url = server->url(dbname_);
+    options.password = server->password();
     options.owner = "conformance";
     absl::StatusOr<std::unique_ptr<PostgresStore>> store = PostgresStore::Open(options);
     if (!store.ok()) return store.status();
@@ -110,7 +72,6 @@ class PostgresBackend : public Backend {
 
  private:
   std::string dbname_;
-  absl::Status created_;
 };
 
 class SessionStoreTest : public ::testing::TestWithParam<std::string> {

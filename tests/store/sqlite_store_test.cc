@@ -10,6 +10,7 @@
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/store/store_test_records.h"
 #include "tests/support/temp_dir.h"
 
 namespace excite::store {
@@ -17,13 +18,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-SessionRecord Session(const std::string& id) {
-  SessionRecord r;
-  r.id = id;
-  r.config = std::string("\x08\x02\x10\x01\0bytes", 10);  // arbitrary bytes with a NUL
-  r.created_unix_ms = 1700000000123;
-  return r;
-}
+using ::excite::store::testing::Session;
 
 TEST(SqliteStoreTest, OpenCreatesDirectoryAndDatabase) {
   excite::testing::TempDir tmp;

@@ -1,7 +1,9 @@
 #include "tests/support/postgres_server.h"
 
+#include <fcntl.h>
 #include <glob.h>
 #include <pwd.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -78,6 +80,7 @@ absl::StatusOr<std::unique_ptr<PostgresServer>> PostgresServer::Start() {
     server->as_user_ = absl::StrCat("setpriv --reuid=", nobody->pw_uid,
                                     " --regid=", nobody->pw_gid, " --clear-groups -- ");
   }
+  if (absl::Status s = server->StartWatchdog(); !s.ok()) return s;
   if (absl::Status s = server->Run(
           absl::StrCat(
               server->bin_, "/initdb -D ", server->data_,
@@ -92,10 +95,35 @@ absl::StatusOr<std::unique_ptr<PostgresServer>> PostgresServer::Start() {
   return server;
 }
 
+absl::Status PostgresServer::StartWatchdog() {
+  // Prepared before fork(): the child (of a process with threads) only reads,
+  // then execs.
+  const std::string command =
+      absl::StrCat(as_user_, bin_, "/pg_ctl -D ", data_, " -m immediate -w stop >> ",
+                   log_, " 2>&1; rm -rf ", dir_);
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0) return absl::InternalError("pipe2 failed");
+  const pid_t pid = ::fork();
+  if (pid < 0) return absl::InternalError("fork failed");
+  if (pid == 0) {
+    ::close(fds[1]);
+    char byte;
+    while (::read(fds[0], &byte, 1) > 0) {
+    }
+    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  ::close(fds[0]);
+  watchdog_pipe_ = fds[1];
+  watchdog_ = pid;
+  return absl::OkStatus();
+}
+
 PostgresServer::~PostgresServer() {
-  if (running_) {
-    Run(absl::StrCat(bin_, "/pg_ctl -D ", data_, " -m immediate -w stop"), "pg_ctl stop")
-        .IgnoreError();
+  if (watchdog_ > 0) {
+    ::close(watchdog_pipe_);  // the watchdog stops the server and removes dir_
+    ::waitpid(watchdog_, nullptr, 0);
+    return;
   }
   std::error_code ec;
   if (!dir_.empty()) std::filesystem::remove_all(dir_, ec);
@@ -114,15 +142,11 @@ absl::Status PostgresServer::StartAgain() {
       Run(absl::StrCat(bin_, "/pg_ctl -D ", data_, " -l ", log_, " -w -t 60 -o \"-p ",
                        port_, " -k ", dir_, " -c listen_addresses=127.0.0.1\" start"),
           "pg_ctl start");
-  if (s.ok()) running_ = true;
   return s;
 }
 
 absl::Status PostgresServer::Stop() {
-  absl::Status s =
-      Run(absl::StrCat(bin_, "/pg_ctl -D ", data_, " -m fast -w stop"), "pg_ctl stop");
-  if (s.ok()) running_ = false;
-  return s;
+  return Run(absl::StrCat(bin_, "/pg_ctl -D ", data_, " -m fast -w stop"), "pg_ctl stop");
 }
 
 std::string PostgresServer::url(const std::string& dbname) const {

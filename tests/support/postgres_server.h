@@ -1,6 +1,8 @@
 #ifndef EXCITE_TESTS_SUPPORT_POSTGRES_SERVER_H_
 #define EXCITE_TESTS_SUPPORT_POSTGRES_SERVER_H_
 
+#include <sys/types.h>
+
 #include <memory>
 #include <string>
 
@@ -14,7 +16,9 @@ namespace excite::testing {
 // (initdb, then pg_ctl), listening on 127.0.0.1 at a free port, with password
 // (SCRAM) authentication for the superuser "excite". initdb refuses to run as
 // root, so as root the cluster belongs to the unprivileged user "nobody".
-// Stopped (immediate) and removed on destruction.
+// Stopped (immediate) and removed on destruction, and also when the test process
+// dies without destructing it (a crash, an abort under a sanitizer): a watchdog
+// child waits for the test process's end.
 class PostgresServer {
  public:
   // FAILED_PRECONDITION if the binaries are missing (scripts/setup.sh installs
@@ -48,6 +52,8 @@ class PostgresServer {
   // Runs `command` (as the cluster's user), output appended to the log; the
   // log's tail in the error.
   absl::Status Run(const std::string& command, const std::string& what);
+  // Forks the watchdog (before initdb: it also removes a half-made cluster).
+  absl::Status StartWatchdog();
   std::string Conninfo(const std::string& dbname) const;
 
   std::string bin_;
@@ -58,7 +64,9 @@ class PostgresServer {
   std::string password_file_;
   std::string as_user_;  // "setpriv ... --" when root, else ""
   int port_ = 0;
-  bool running_ = false;
+  // The watchdog: it stops the server and removes dir_ once this end closes.
+  int watchdog_pipe_ = -1;
+  pid_t watchdog_ = -1;
 };
 
 }  // namespace excite::testing
