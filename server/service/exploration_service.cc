@@ -149,10 +149,11 @@ grpc::Status ExplorationService::GetSession(grpc::ServerContext* /*context*/,
                                             const v1::GetSessionRequest* request,
                                             v1::Session* response) {
   return RunRpc("GetSession", request->name(), [&]() -> absl::Status {
-    absl::StatusOr<std::shared_ptr<Session>> session =
-        FindSession(request->name(), "name");
-    if (!session.ok()) return session.status();
-    *response = SessionToProto((*session)->Describe());
+    absl::StatusOr<std::string> id = ParseSessionName(request->name(), "name");
+    if (!id.ok()) return id.status();
+    absl::StatusOr<SessionDescription> described = registry_->Describe(*id);
+    if (!described.ok()) return described.status();
+    *response = SessionToProto(*described);
     return absl::OkStatus();
   });
 }

@@ -434,6 +434,24 @@ void SessionRegistry::RenewOnce() {
   }
 }
 
+absl::StatusOr<SessionDescription> SessionRegistry::Describe(const std::string& id) {
+  if (!shared_) {
+    absl::StatusOr<std::shared_ptr<Session>> session = Get(id);
+    if (!session.ok()) return session.status();
+    return (*session)->Describe();
+  }
+  {
+    absl::MutexLock lock(&mu_);
+    auto it = sessions_.find(id);
+    if (it != sessions_.end()) {
+      if (std::shared_ptr<Session> ready = Ready(it->second)) return ready->Describe();
+    }
+  }
+  absl::StatusOr<store::SessionListing> listing = store_->ListSession(id);
+  if (!listing.ok()) return listing.status();
+  return Session::DescribeStored(*listing);
+}
+
 absl::Status SessionRegistry::Delete(const std::string& id) {
   absl::StatusOr<std::shared_ptr<Session>> session = Get(id);
   if (!session.ok()) return session.status();

@@ -90,6 +90,11 @@ class SessionRegistry {
   // reached, RESOURCE_EXHAUSTED if it does not fit the memory budget.
   absl::StatusOr<std::shared_ptr<Session>> Get(const std::string& id);
 
+  // What GetSession answers: the live description of a session served here,
+  // else (a shared store) the stored one (Session::DescribeStored), without
+  // taking the lease: reading a session never moves it. NOT_FOUND if unknown.
+  absl::StatusOr<SessionDescription> Describe(const std::string& id);
+
   // Deletes the session and its samples (store first). NOT_FOUND if unknown.
   absl::Status Delete(const std::string& id);
 

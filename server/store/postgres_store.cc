@@ -332,34 +332,60 @@ absl::StatusOr<int64_t> PostgresStore::CountSessions() {
   return count;
 }
 
+namespace {
+
+// Sessions with their sample counts: `where` selects them (parameters $1, $2).
+template <typename... Params>
+std::vector<SessionListing> SelectListings(pqxx::work& tx, const std::string& where,
+                                           Params&&... params) {
+  const pqxx::result rows = tx.exec_params(
+      absl::StrCat("SELECT s.id, s.config, s.created_unix_ms, s.hyperparameters, "
+                   "s.model_version, s.display_name, c.n, c.last FROM sessions s CROSS "
+                   "JOIN LATERAL (SELECT count(*) AS n, coalesce(max(p.sequence), -1) AS "
+                   "last FROM samples p WHERE p.session_id = s.id) c ",
+                   where),
+      std::forward<Params>(params)...);
+  std::vector<SessionRecord> records;
+  for (const pqxx::row& row : rows) records.push_back(RecordFromRow(row));
+  LoadLabels(tx, &records);
+  std::vector<SessionListing> listings;
+  for (size_t i = 0; i < records.size(); ++i) {
+    SessionListing listing;
+    listing.record = std::move(records[i]);
+    listing.sample_count = rows[static_cast<int>(i)][6].as<int64_t>();
+    listing.last_sequence = rows[static_cast<int>(i)][7].as<int64_t>();
+    listings.push_back(std::move(listing));
+  }
+  return listings;
+}
+
+}  // namespace
+
 absl::StatusOr<std::vector<SessionListing>> PostgresStore::ListSessions(
     const std::string& after_id, int limit) {
   std::vector<SessionListing> listings;
   absl::Status status = connections_->Run([&](pqxx::connection_base& conn) {
-    listings.clear();
     pqxx::work tx(conn);
-    const pqxx::result rows = tx.exec_params(
-        "SELECT s.id, s.config, s.created_unix_ms, s.hyperparameters, "
-        "s.model_version, s.display_name, c.n, c.last FROM sessions s CROSS JOIN "
-        "LATERAL (SELECT count(*) AS n, coalesce(max(p.sequence), -1) AS last FROM "
-        "samples p WHERE p.session_id = s.id) c WHERE s.id > $1 ORDER BY s.id "
-        "LIMIT $2",
-        after_id, limit);
-    std::vector<SessionRecord> records;
-    for (const pqxx::row& row : rows) records.push_back(RecordFromRow(row));
-    LoadLabels(tx, &records);
+    listings =
+        SelectListings(tx, "WHERE s.id > $1 ORDER BY s.id LIMIT $2", after_id, limit);
     tx.commit();
-    for (size_t i = 0; i < records.size(); ++i) {
-      SessionListing listing;
-      listing.record = std::move(records[i]);
-      listing.sample_count = rows[static_cast<int>(i)][6].as<int64_t>();
-      listing.last_sequence = rows[static_cast<int>(i)][7].as<int64_t>();
-      listings.push_back(std::move(listing));
-    }
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
   return listings;
+}
+
+absl::StatusOr<SessionListing> PostgresStore::ListSession(const std::string& id) {
+  std::vector<SessionListing> one;
+  absl::Status status = connections_->Run([&](pqxx::connection_base& conn) {
+    pqxx::work tx(conn);
+    one = SelectListings(tx, "WHERE s.id = $1", id);
+    tx.commit();
+    return absl::OkStatus();
+  });
+  if (!status.ok()) return status;
+  if (one.empty()) return NotFound(id);
+  return std::move(one.front());
 }
 
 absl::StatusOr<SessionRecord> PostgresStore::LoadSession(const std::string& id) {

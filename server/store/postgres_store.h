@@ -79,6 +79,7 @@ class PostgresStore final : public SessionStore {
   absl::StatusOr<int64_t> CountSessions() override;
   absl::StatusOr<std::vector<SessionListing>> ListSessions(const std::string& after_id,
                                                            int limit) override;
+  absl::StatusOr<SessionListing> ListSession(const std::string& id) override;
   absl::StatusOr<SessionRecord> LoadSession(const std::string& id) override;
   absl::StatusOr<std::vector<SampleRecord>> LoadSamples(
       const std::string& session_id, std::vector<int64_t>* unreadable) override;

@@ -51,6 +51,8 @@ class SessionStore {
   // scan of their samples.
   virtual absl::StatusOr<std::vector<SessionListing>> ListSessions(
       const std::string& after_id, int limit) = 0;
+  // One session as ListSessions gives it. NOT_FOUND if there is no such session.
+  virtual absl::StatusOr<SessionListing> ListSession(const std::string& id) = 0;
   // One session's record. NOT_FOUND if there is no such session.
   virtual absl::StatusOr<SessionRecord> LoadSession(const std::string& id) = 0;
   // All samples of one session in sequence order. A row whose vectors cannot be

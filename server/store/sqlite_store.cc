@@ -475,6 +475,24 @@ absl::StatusOr<std::vector<SessionListing>> SqliteStore::ListSessions(
   return listings;
 }
 
+absl::StatusOr<SessionListing> SqliteStore::ListSession(const std::string& id) {
+  absl::StatusOr<SessionRecord> record = LoadSession(id);
+  if (!record.ok()) return record.status();
+  absl::MutexLock lock(&mu_);
+  absl::StatusOr<SqliteStatement> counts = SqliteStatement::Prepare(
+      db_,
+      "SELECT count(*), coalesce(max(sequence), -1) FROM samples WHERE session_id = ?");
+  if (!counts.ok()) return counts.status();
+  if (absl::Status s = counts->BindText(1, id); !s.ok()) return s;
+  absl::StatusOr<bool> row = counts->Step();
+  if (!row.ok()) return row.status();
+  SessionListing listing;
+  listing.record = *std::move(record);
+  listing.sample_count = *row ? counts->ColumnInt64(0) : 0;
+  listing.last_sequence = *row ? counts->ColumnInt64(1) : -1;
+  return listing;
+}
+
 absl::StatusOr<SessionRecord> SqliteStore::LoadSession(const std::string& id) {
   absl::MutexLock lock(&mu_);
   absl::StatusOr<SqliteStatement> stmt =

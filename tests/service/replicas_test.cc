@@ -93,8 +93,19 @@ TEST_F(ReplicasTest, ASessionIsServedByOneReplicaAndMovesWhenAskedOnceIdle) {
   ASSERT_TRUE(clients_[0]->CreateSession(PendulumConfig(), "moving").ok());
   ASSERT_TRUE(clients_[0]->AddData("sessions/moving", {Batch(0, 20)}).ok());
 
-  // Replica 1 may not serve it while replica 0 holds it...
-  absl::StatusOr<v1::Session> refused = clients_[1]->GetSession("sessions/moving");
+  // Any replica describes it, from the store, without taking it...
+  absl::StatusOr<v1::Session> described_by_1 = clients_[1]->GetSession("sessions/moving");
+  ASSERT_TRUE(described_by_1.ok()) << described_by_1.status();
+  EXPECT_EQ(described_by_1->sample_count(), 20);
+  EXPECT_EQ(*postgres_->Query("SELECT owner || ' ' || (handoff_wanted_by IS NULL) FROM "
+                              "sessions WHERE id = 'moving'",
+                              dbname_),
+            "replica-0 true");
+  // ...but replica 1 may not serve it while replica 0 holds it.
+  v1::PredictRequest predict;
+  predict.set_session("sessions/moving");
+  for (double z : {0.1, 0.2, 0.3}) predict.add_inputs(z);
+  absl::StatusOr<v1::PredictResponse> refused = clients_[1]->Predict(predict);
   ASSERT_TRUE(absl::IsUnavailable(refused.status())) << refused.status();
   EXPECT_THAT(refused.status().message(), HasSubstr("replica-0"));
 

@@ -357,6 +357,14 @@ TEST_P(SessionStoreTest, ListsPagesInIdOrderAndCounts) {
   EXPECT_EQ((*rest)[1].last_sequence, 9);
   EXPECT_EQ((*rest)[2].record.id, "c");
   EXPECT_TRUE(store_->ListSessions("c", 10)->empty());
+  absl::StatusOr<SessionListing> one = store_->ListSession("b");
+  ASSERT_TRUE(one.ok()) << one.status();
+  EXPECT_EQ(one->record.id, "b");
+  EXPECT_EQ(one->record.config, Session("b").config);
+  EXPECT_EQ(one->sample_count, 2);
+  EXPECT_EQ(one->last_sequence, 9);
+  EXPECT_EQ(store_->ListSession("a")->sample_count, 0);
+  EXPECT_TRUE(absl::IsNotFound(store_->ListSession("zz").status()));
 }
 
 TEST_P(SessionStoreTest, LeasesOfOneReplicaAreKept) {
