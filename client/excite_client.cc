@@ -94,14 +94,17 @@ void ExciteClient::Prepare(grpc::ClientContext* context,
 }
 
 template <typename Attempt>
-auto ExciteClient::Retrying(Attempt&& attempt) const -> decltype(attempt()) {
+auto ExciteClient::Retrying(Attempt&& attempt, bool idempotent) const
+    -> decltype(attempt()) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point give_up = Clock::now() + options_.retry_unavailable;
   std::chrono::milliseconds backoff(50);
   while (true) {
     auto result = attempt();
     const absl::Status& status = StatusOf(result);
-    if (!absl::IsUnavailable(status) || Clock::now() + backoff >= give_up) return result;
+    const bool retryable =
+        absl::IsUnavailable(status) || (idempotent && absl::IsDeadlineExceeded(status));
+    if (!retryable || Clock::now() + backoff >= give_up) return result;
     std::this_thread::sleep_for(backoff);
     backoff = std::min<std::chrono::milliseconds>(backoff * 2, std::chrono::seconds(2));
   }
@@ -182,9 +185,9 @@ absl::Status ExciteClient::DeleteSession(const std::string& name) {
 
 absl::StatusOr<v1::AddDataResponse> ExciteClient::AddData(
     const std::string& session, const std::vector<std::vector<v1::Transition>>& batches) {
-  return Retrying([&]() -> absl::StatusOr<v1::AddDataResponse> {
+  auto attempt = [&]() -> absl::StatusOr<v1::AddDataResponse> {
     grpc::ClientContext context;
-    Prepare(&context, options_.default_deadline, session);
+    Prepare(&context, options_.data_deadline, session);
     v1::AddDataResponse response;
     std::unique_ptr<grpc::ClientWriter<v1::AddDataRequest>> writer =
         stub_->AddData(&context, &response);
@@ -200,7 +203,8 @@ absl::StatusOr<v1::AddDataResponse> ExciteClient::AddData(
     writer->WritesDone();
     if (absl::Status s = FromGrpc(writer->Finish()); !s.ok()) return s;
     return response;
-  });
+  };
+  return Retrying(attempt, /*idempotent=*/true);
 }
 
 std::unique_ptr<DataStream> ExciteClient::OpenDataStream(

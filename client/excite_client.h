@@ -16,6 +16,11 @@ struct ClientOptions {
   std::chrono::milliseconds default_deadline{30000};
   // Deadline of PlanInputs (solves can take a while).
   std::chrono::milliseconds plan_deadline{60000};
+  // Deadline of one AddData attempt. Storing a batch takes milliseconds; an
+  // attempt that runs this long is taken as stuck (a replica that died with the
+  // call in flight, behind a proxy that never saw it go) and is retried like an
+  // UNAVAILABLE one, within retry_unavailable.
+  std::chrono::milliseconds data_deadline{30000};
   // TLS: PEM CA bundle that signed the server's certificate; empty: plaintext.
   std::string tls_ca_file;
   // Mutual TLS: this client's PEM certificate and key (with tls_ca_file).
@@ -31,8 +36,9 @@ struct ClientOptions {
   // dead, a session moving to another replica) are retried, with backoff from
   // 50 ms to 2 s, until this much time has passed since the first attempt; 0:
   // never. Safe for AddData (sequence numbers make a resent batch a
-  // duplicate); a CreateSession without an id that failed after the server
-  // stored it leaves an unused session behind. DataStream is not retried.
+  // duplicate), which is also retried after DEADLINE_EXCEEDED (data_deadline);
+  // a CreateSession without an id that failed after the server stored it
+  // leaves an unused session behind. DataStream is not retried.
   std::chrono::milliseconds retry_unavailable{0};
 };
 
@@ -129,9 +135,10 @@ class ExciteClient {
   void Prepare(grpc::ClientContext* context, std::chrono::milliseconds timeout,
                const std::string& session) const;
   // `attempt` (one call, returning absl::Status or StatusOr), retried as
-  // options_.retry_unavailable says.
+  // options_.retry_unavailable says; also after DEADLINE_EXCEEDED if
+  // `idempotent` (a resent attempt changes nothing that the first one did).
   template <typename Attempt>
-  auto Retrying(Attempt&& attempt) const -> decltype(attempt());
+  auto Retrying(Attempt&& attempt, bool idempotent = false) const -> decltype(attempt());
   // One unary call of `method` about `session` ("" if none), with `timeout`.
   template <typename Request, typename Response>
   absl::StatusOr<Response> Unary(grpc::Status (v1::ExplorationService::Stub::*method)(

@@ -313,7 +313,9 @@ absl::Status ExplorationRun::FlushAndMaybeEvaluate() {
   const int64_t sent = static_cast<int64_t>(pending_.size());
   absl::StatusOr<v1::AddDataResponse> reply = client_.AddData(session_name_, {pending_});
   if (!reply.ok()) return Annotate(reply.status(), "AddData");
-  if (reply->stored() != sent || reply->sample_count() != samples_) {
+  // A batch resent after a lost answer (a retry) comes back as duplicates.
+  if (reply->stored() + reply->duplicates() != sent ||
+      reply->sample_count() != samples_) {
     return absl::DataLossError(
         absl::StrCat("AddData stored ", reply->stored(), " of ", sent, " transitions (",
                      reply->duplicates(), " duplicates); the session has ",

@@ -45,6 +45,10 @@ ABSL_FLAG(int32_t, connect_timeout_s, 10, "how long to wait for the server to be
 ABSL_FLAG(int32_t, retry_unavailable_s, 30,
           "how long a call that fails with UNAVAILABLE (a replica restarting, a session "
           "moving between replicas) is retried before the run fails; 0: never");
+ABSL_FLAG(int32_t, data_deadline_s, 10,
+          "deadline of one AddData attempt (storing one step's transitions takes "
+          "milliseconds); an attempt past it is retried within --retry_unavailable_s "
+          "with the same sequence numbers");
 
 namespace excite::sim {
 namespace {
@@ -102,6 +106,8 @@ int Main() {
   }
   client_options.retry_unavailable =
       std::chrono::seconds(std::max(0, absl::GetFlag(FLAGS_retry_unavailable_s)));
+  client_options.data_deadline =
+      std::chrono::seconds(std::max(1, absl::GetFlag(FLAGS_data_deadline_s)));
   std::unique_ptr<client::ExciteClient> client =
       client::ExciteClient::Connect(server, client_options);
   if (absl::Status s = client->WaitForReady(

@@ -78,8 +78,10 @@ SessionRegistry::~SessionRegistry() {
       if (loaded.session != nullptr) held.emplace_back(id, loaded.session);
     }
   }
+  // One by one; if the store is unreachable, the rest of the leases simply
+  // expire (no point waiting for each).
   for (const auto& [id, session] : held) {
-    Release(id, session, std::chrono::nanoseconds(-1));
+    if (!Release(id, session, std::chrono::nanoseconds(-1)).ok()) break;
   }
 }
 
@@ -249,7 +251,7 @@ absl::Status SessionRegistry::Reserve(int64_t bytes, absl::string_view what) {
     }
   }
   for (const auto& [id, session] : idle) {
-    Release(id, session, options_.handoff_idle);
+    Release(id, session, options_.handoff_idle).IgnoreError();  // logged
     reserved = options_.budget->Reserve(bytes, what);
     if (reserved.ok()) return reserved;
   }
@@ -320,7 +322,10 @@ absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::AcquireAndLoad(
   if (current != nullptr && !current->stale() && current->fence() == *fence) {
     // Still ours under the same fence: nobody else wrote it meanwhile.
     absl::MutexLock lock(&mu_);
-    sessions_[id].valid_until = TrustUntil(asked);
+    Loaded& loaded = sessions_[id];
+    loaded.entry = entry;
+    loaded.session = current;
+    loaded.valid_until = TrustUntil(asked);
     return current;
   }
   if (current != nullptr) current->MarkStale();
@@ -345,18 +350,18 @@ absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::AcquireAndLoad(
   return *session;
 }
 
-bool SessionRegistry::Release(const std::string& id,
-                              const std::shared_ptr<Session>& session,
-                              std::chrono::nanoseconds idle) {
+absl::Status SessionRegistry::Release(const std::string& id,
+                                      const std::shared_ptr<Session>& session,
+                                      std::chrono::nanoseconds idle) {
   std::shared_ptr<Entry> entry;
   {
     absl::MutexLock lock(&mu_);
     auto it = sessions_.find(id);
-    if (it == sessions_.end() || it->second.session != session) return false;
+    if (it == sessions_.end() || it->second.session != session) return absl::OkStatus();
     entry = it->second.entry;
   }
   // A load of this id in progress wins: try again at the next renewal.
-  if (!entry->load_mu.TryLock()) return false;
+  if (!entry->load_mu.TryLock()) return absl::OkStatus();
   bool dropped = false;
   {
     absl::MutexLock lock(&mu_);
@@ -368,17 +373,19 @@ bool SessionRegistry::Release(const std::string& id,
       dropped = true;
     }
   }
+  absl::Status released;
   if (dropped) {
-    if (absl::Status s = store_->ReleaseLease(id, session->fence()); !s.ok()) {
+    released = store_->ReleaseLease(id, session->fence());
+    if (!released.ok()) {
       Log(LogLevel::kWarning,
           absl::StrCat("releasing ", session->name(),
-                       " failed (its lease will expire): ", s.message()));
+                       " failed (its lease will expire): ", released.message()));
     } else {
       Log(LogLevel::kInfo, absl::StrCat("released ", session->name()));
     }
   }
   entry->load_mu.Unlock();
-  return dropped;
+  return released;
 }
 
 void SessionRegistry::RenewLoop() {
@@ -424,12 +431,12 @@ void SessionRegistry::RenewOnce() {
     }
   }
   for (const std::string& id : renewal->wanted) {
-    Release(id, by_id[id], options_.handoff_idle);
+    Release(id, by_id[id], options_.handoff_idle).IgnoreError();  // logged
   }
   if (options_.idle_release.count() > 0) {
     for (const auto& [id, session] : by_id) {
       if (session->IdleFor(options_.idle_release))
-        Release(id, session, options_.idle_release);
+        Release(id, session, options_.idle_release).IgnoreError();  // logged
     }
   }
 }

@@ -155,10 +155,11 @@ class SessionRegistry {
   void RenewLoop();
   void RenewOnce();
   // Drops the session `id` if it is still `session` and idle for `idle`
-  // (always if `idle` is negative), then releases its lease. False if it was
-  // not dropped (busy, or no longer the same).
-  bool Release(const std::string& id, const std::shared_ptr<Session>& session,
-               std::chrono::nanoseconds idle);
+  // (always if `idle` is negative), then releases its lease. OK unless the
+  // store failed to release it (logged; the lease then expires); a session not
+  // dropped (busy, loading, or no longer the same) is OK too.
+  absl::Status Release(const std::string& id, const std::shared_ptr<Session>& session,
+                       std::chrono::nanoseconds idle);
 
   store::SessionStore* const store_;
   const RegistryOptions options_;

@@ -53,6 +53,12 @@ fail() {
       podman logs "$c" >&2 2>&1 || true
     fi
   done
+  if [ -n "${scale_up:-}" ]; then
+    for c in proxy excite-1 excite-2 excite-3 postgres; do
+      echo "--- last lines of compose.scale's $c" >&2
+      podman logs --tail 60 "${tag}-scale_${c}_1" >&2 2>&1 || true
+    done
+  fi
   exit 1
 }
 compose() {

@@ -11,8 +11,10 @@
 #include <cmath>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "excite/v1/exploration_service.grpc.pb.h"
@@ -45,21 +47,38 @@ class FakeService final : public v1::ExplorationService::Service {
     deleted_.push_back(request->name());
     return grpc::Status::OK;
   }
-  grpc::Status AddData(grpc::ServerContext*,
+  // Stores each sequence number once (a resent one counts as a duplicate), as
+  // the real service does.
+  grpc::Status AddData(grpc::ServerContext* context,
                        grpc::ServerReader<v1::AddDataRequest>* reader,
                        v1::AddDataResponse* reply) override {
     v1::AddDataRequest request;
-    std::lock_guard<std::mutex> lock(mu_);
-    int64_t stored = 0;
-    while (reader->Read(&request)) {
-      batch_sizes_.push_back(request.transitions_size());
-      for (const v1::Transition& t : request.transitions()) {
-        transitions_.push_back(t);
-        ++stored;
+    bool stall = false;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      int64_t stored = 0;
+      int64_t duplicates = 0;
+      while (reader->Read(&request)) {
+        batch_sizes_.push_back(request.transitions_size());
+        for (const v1::Transition& t : request.transitions()) {
+          if (!sequences_.insert(t.sequence()).second) {
+            ++duplicates;
+            continue;
+          }
+          transitions_.push_back(t);
+          ++stored;
+        }
       }
+      reply->set_stored(stored);
+      reply->set_duplicates(duplicates);
+      reply->set_sample_count(static_cast<int64_t>(transitions_.size()));
+      stall = static_cast<int>(transitions_.size()) == stall_after_storing && stored > 0;
     }
-    reply->set_stored(stored);
-    reply->set_sample_count(static_cast<int64_t>(transitions_.size()));
+    // Stored, but the answer never comes: a replica that died after its commit
+    // behind a proxy that kept the call open.
+    while (stall && !context->IsCancelled()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
     return grpc::Status::OK;
   }
   grpc::Status Predict(grpc::ServerContext*, const v1::PredictRequest* request,
@@ -102,6 +121,8 @@ class FakeService final : public v1::ExplorationService::Service {
   std::vector<std::string> deleted_;
   std::vector<int> batch_sizes_;
   std::vector<v1::Transition> transitions_;
+  std::set<int64_t> sequences_;
+  int stall_after_storing = -1;  // AddData that reaches this many samples hangs
   int plan_calls_ = 0;
   int exact_after = 1000000;
   double planned_input = 10.0;  // Outside the bounds: the client clips it.
@@ -122,7 +143,8 @@ class ExplorationRunTest : public testing::Test {
     builder.RegisterService(service_.get());
     server_ = builder.BuildAndStart();
     ASSERT_NE(server_, nullptr);
-    client_ = client::ExciteClient::Connect("127.0.0.1:" + std::to_string(port));
+    address_ = "127.0.0.1:" + std::to_string(port);
+    client_ = client::ExciteClient::Connect(address_);
   }
   void TearDown() override { server_->Shutdown(); }
 
@@ -134,6 +156,7 @@ class ExplorationRunTest : public testing::Test {
   std::unique_ptr<Plant> plant_;
   std::unique_ptr<FakeService> service_;
   std::unique_ptr<grpc::Server> server_;
+  std::string address_;
   std::unique_ptr<client::ExciteClient> client_;
 };
 
@@ -228,11 +251,42 @@ TEST_F(ExplorationRunTest, PlanDeadlinesAreRetriedThreeTimes) {
       << log.str();
 
   service_->transitions_.clear();
+  service_->sequences_.clear();
   service_->late_plans_at_5 = 4;
   summary = Run();
   ASSERT_FALSE(summary.ok());
   EXPECT_EQ(summary.status().code(), absl::StatusCode::kDeadlineExceeded);
   EXPECT_NE(summary.status().message().find("PlanInputs"), std::string::npos)
+      << summary.status();
+}
+
+// An AddData whose answer never comes is retried after data_deadline with the
+// same sequence numbers: the resent batch comes back as duplicates and the run
+// goes on, every sample stored once. Without a retry window it is an error.
+TEST_F(ExplorationRunTest, StuckAddDataIsRetriedWithTheSameSequenceNumbers) {
+  client::ClientOptions options;
+  options.data_deadline = std::chrono::milliseconds(300);
+  options.retry_unavailable = std::chrono::seconds(20);
+  client_ = client::ExciteClient::Connect(address_, options);
+  config_.set_samples(8);
+  service_->stall_after_storing = 4;
+  absl::StatusOr<RunSummary> summary = Run();
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->samples, 8);
+  ASSERT_EQ(service_->transitions_.size(), 8u);
+  for (size_t k = 0; k < 8; ++k) {
+    EXPECT_EQ(service_->transitions_[k].sequence(), static_cast<int64_t>(k));
+  }
+  EXPECT_EQ(service_->batch_sizes_.size(), 9u);  // 8 steps, one resent
+
+  options.retry_unavailable = std::chrono::milliseconds(0);
+  client_ = client::ExciteClient::Connect(address_, options);
+  service_->transitions_.clear();
+  service_->sequences_.clear();
+  summary = Run();
+  ASSERT_FALSE(summary.ok());
+  EXPECT_EQ(summary.status().code(), absl::StatusCode::kDeadlineExceeded);
+  EXPECT_NE(summary.status().message().find("AddData"), std::string::npos)
       << summary.status();
 }
 
@@ -292,6 +346,7 @@ TEST_F(ExplorationRunTest, SameSeedSameData) {
   ASSERT_TRUE(Run().ok());
   const std::vector<v1::Transition> first = service_->transitions_;
   service_->transitions_.clear();
+  service_->sequences_.clear();
   ASSERT_TRUE(Run().ok());
   ASSERT_EQ(service_->transitions_.size(), first.size());
   for (size_t k = 0; k < first.size(); ++k) {
