@@ -1,0 +1,131 @@
+#!/usr/bin/env python3
+"""Half-cheetah PlanInputs (with its refit) at n samples, and how good its plans are.
+
+Issue 13's target: a half-cheetah PlanInputs at n = 500, M = 10, p50 <= 1 s, with the
+objective within 5 % of a 10x longer solve. Steps:
+
+1. excite-sim explores the half-cheetah (MuJoCo) with PRBS for n + --steps samples
+   and writes the trajectory (the data; PRBS because it is cheap to collect, the
+   cost of a plan depends on n, not on who chose the inputs).
+2. For each refit policy, a fresh session of sim/configs/half_cheetah.textproto gets
+   the first n transitions and one Predict (the first, cold fit, not timed); then
+   --steps times: AddData of the next transition, PlanInputs at its next state,
+   timed at the client (the refit the policy asks for runs inside PlanInputs).
+   Policies: "paper" (the config's: refit at every sample) and "default" (the
+   server's: refit once the data grew by 5 %).
+3. A third session with the default policy and a 10x longer solve (10x the Ipopt
+   iterations per start, a 10x tighter tolerance) plans at the same states
+   from the same data; the ratio of the objectives (summed entropy, nats; both
+   sessions fit the same hyperparameters from the same data) says how much the
+   normal solve leaves on the table.
+
+    bench/load/half_cheetah_plan.py [--server build/release/server/excite-server]
+        [--sim build/release/sim/excite-sim] [--n 500] [--steps 20] [--seed 1]
+        [--min_ratio R]   # exit 1 if a plan's objective is below R x the long one's
+"""
+import argparse
+import csv
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "client", "python"))
+import numpy as np  # noqa: E402
+import excite  # noqa: E402
+from excite.client import Client  # noqa: E402
+
+ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
+CONFIG = os.path.join(ROOT, "sim", "configs", "half_cheetah.textproto")
+DX, DU = 18, 6
+
+
+def start_server(binary):
+    data_dir = tempfile.mkdtemp(prefix="excite-cheetah-plan-")
+    server = subprocess.Popen([binary, "--listen=127.0.0.1:0", f"--data_dir={data_dir}",
+                               "--log_level=warning"], stdout=subprocess.PIPE, text=True)
+    port = server.stdout.readline().strip().rsplit(":", 1)[1]
+    return server, f"127.0.0.1:{port}"
+
+
+def collect(args, address, path):
+    subprocess.run([args.sim, f"--server={address}", f"--config={CONFIG}",
+                    "--strategy=prbs", f"--samples={args.n + args.steps}",
+                    f"--seed={args.seed}", f"--trajectory={path}",
+                    "--session_override=refit { growth: 0.05 }"],
+                   check=True, stdout=subprocess.DEVNULL)
+    with open(path) as f:
+        rows = np.array([[float(v) for v in row[1:]] for row in list(csv.reader(f))[1:]])
+    return rows[:, :DX], rows[:, DX:DX + DU], rows[:, DX + DU:]
+
+
+def session_config(policy, long_solve):
+    config = excite.session_config(CONFIG)
+    if policy == "default":
+        config.refit.growth = 0.05
+    if long_solve:
+        config.planner.max_iterations = 1000  # default 100
+        config.planner.tolerance = 1e-5  # default 1e-4
+        config.planner.time_budget_s = 600
+    return config
+
+
+def run(client, policy, long_solve, xs, us, nexts, n, steps):
+    session = client.create_session(session_config(policy, long_solve))
+    try:
+        session.add(xs[:n], us[:n], nexts[:n])
+        session.predict(np.zeros((1, DX + DU)))  # the cold fit, not timed
+        times, objectives = [], []
+        for k in range(n, n + steps):
+            session.add(xs[k:k + 1], us[k:k + 1], nexts[k:k + 1])
+            t0 = time.perf_counter()
+            plan = session.plan(nexts[k])
+            times.append(time.perf_counter() - t0)
+            objectives.append(plan.objective)
+        return 1000 * np.array(times), np.array(objectives)
+    finally:
+        session.delete()
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--server", default="build/release/server/excite-server")
+    parser.add_argument("--sim", default="build/release/sim/excite-sim")
+    parser.add_argument("--n", type=int, default=500)
+    parser.add_argument("--steps", type=int, default=20)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--min_ratio", type=float, default=0.0,
+                        help="fail if any objective is below this fraction of the "
+                             "10x longer solve's (0: no check)")
+    args = parser.parse_args()
+    server, address = start_server(args.server)
+    try:
+        client = Client(address, timeout_s=3600, plan_timeout_s=3600)
+        with tempfile.TemporaryDirectory() as tmp:
+            xs, us, nexts = collect(args, address, os.path.join(tmp, "trajectory.csv"))
+        print(f"half-cheetah, n = {args.n}, {args.steps} steps, PRBS data (seed "
+              f"{args.seed})", flush=True)
+        results = {}
+        for policy, long_solve in (("paper", False), ("default", False), ("default", True)):
+            ms, objective = run(client, policy, long_solve, xs, us, nexts, args.n,
+                                args.steps)
+            results[(policy, long_solve)] = objective
+            name = f"{policy} refit{', 10x longer solve' if long_solve else ''}"
+            print(f"{name}: PlanInputs p50 {np.median(ms):.0f} ms, slowest "
+                  f"{ms.max():.0f} ms, objective mean {objective.mean():.3f} nats",
+                  flush=True)
+        ratio = results[("default", False)] / results[("default", True)]
+        gap = np.abs(results[("default", False)] - results[("default", True)])
+        print(f"objective / 10x longer solve's: median {np.median(ratio):.4f}, "
+              f"min {ratio.min():.4f}, max {ratio.max():.4f}; |difference| median "
+              f"{np.median(gap):.3f} nats, max {gap.max():.3f}", flush=True)
+        if not np.all(np.isfinite(ratio)) or ratio.min() < args.min_ratio:
+            sys.exit(f"an objective is below {args.min_ratio} x the longer solve's")
+    finally:
+        server.terminate()
+        server.wait()
+
+
+if __name__ == "__main__":
+    main()
