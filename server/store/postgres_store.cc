@@ -549,34 +549,42 @@ absl::StatusOr<int64_t> PostgresStore::AcquireLease(const std::string& session_i
   int64_t fence = 0;
   absl::Status status = connections_->Run([&](pqxx::connection_base& conn) {
     pqxx::work tx(conn);
-    // Ours already: same fence. Free or expired: the next fence, and whatever
-    // handoff was asked of the previous owner is void.
-    const pqxx::result taken = tx.exec_params(
-        absl::StrCat(
-            "UPDATE sessions SET fence = CASE WHEN owner = $2 THEN fence ELSE fence + 1 "
-            "END, handoff_wanted_by = CASE WHEN owner = $2 THEN handoff_wanted_by ELSE "
-            "NULL END, owner = $2, lease_expires = ",
-            ExpiryIn(3),
-            " WHERE id = $1 AND (owner = $2 OR owner IS NULL OR lease_expires IS NULL OR "
-            "lease_expires <= clock_timestamp()) RETURNING fence"),
-        session_id, options_.owner, options_.lease_ttl.count());
-    if (!taken.empty()) {
-      fence = taken[0][0].as<int64_t>();
+    // Each statement sees what was committed before it (READ COMMITTED): a lease
+    // released between the take and the hand-over request is taken on the next
+    // round.
+    for (int round = 0; round < 3; ++round) {
+      // Ours already: same fence. Free or expired: the next fence, and whatever
+      // handoff was asked of the previous owner is void.
+      const pqxx::result taken = tx.exec_params(
+          absl::StrCat(
+              "UPDATE sessions SET fence = CASE WHEN owner = $2 THEN fence ELSE fence + "
+              "1 END, handoff_wanted_by = CASE WHEN owner = $2 THEN handoff_wanted_by "
+              "ELSE NULL END, owner = $2, lease_expires = ",
+              ExpiryIn(3),
+              " WHERE id = $1 AND (owner = $2 OR owner IS NULL OR lease_expires IS NULL "
+              "OR lease_expires <= clock_timestamp()) RETURNING fence"),
+          session_id, options_.owner, options_.lease_ttl.count());
+      if (!taken.empty()) {
+        fence = taken[0][0].as<int64_t>();
+        tx.commit();
+        return absl::OkStatus();
+      }
+      const pqxx::result held = tx.exec_params(
+          "UPDATE sessions SET handoff_wanted_by = $2 WHERE id = $1 RETURNING owner, "
+          "extract(epoch FROM lease_expires - clock_timestamp())",
+          session_id, options_.owner);
+      if (held.empty()) return NotFound(session_id);
+      if (held[0][0].is_null() || held[0][1].is_null()) continue;  // just released
       tx.commit();
-      return absl::OkStatus();
+      const double left_s = std::max(0.0, held[0][1].as<double>());
+      return absl::UnavailableError(absl::StrFormat(
+          "session sessions/%s is served by replica %s (its lease runs %.1f s more "
+          "unless renewed; it was asked to hand the session over): retry, through the "
+          "proxy that routes the session's calls to one replica",
+          session_id, held[0][0].as<std::string>(), left_s));
     }
-    const pqxx::result held = tx.exec_params(
-        "UPDATE sessions SET handoff_wanted_by = $2 WHERE id = $1 RETURNING owner, "
-        "extract(epoch FROM lease_expires - clock_timestamp())",
-        session_id, options_.owner);
-    tx.commit();
-    if (held.empty()) return NotFound(session_id);
-    const double left_s = std::max(0.0, held[0][1].as<double>());
     return absl::UnavailableError(absl::StrFormat(
-        "session sessions/%s is served by replica %s (its lease runs %.1f s more "
-        "unless renewed; it was asked to hand the session over): retry, through the "
-        "proxy that routes the session's calls to one replica",
-        session_id, held[0][0].as<std::string>(), left_s));
+        "the lease of session sessions/%s is changing hands: retry", session_id));
   });
   if (!status.ok()) return status;
   return fence;

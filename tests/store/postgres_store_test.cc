@@ -106,6 +106,50 @@ TEST_F(PostgresStoreTest, OneOwnerAtATimeAndTheOtherIsAskedToHandOver) {
   EXPECT_EQ(a->LoadSession("s")->model_version, 0);  // A's SaveModelState was refused
 }
 
+// A lease taken and released over and over while another replica asks for it:
+// the asker gets the lease or UNAVAILABLE, never an error (a lease released
+// between its take and its hand-over request once read as a NULL expiry), and
+// every fence it gets is new.
+TEST_F(PostgresStoreTest, AskingWhileTheLeaseChangesHandsIsOkOrUnavailable) {
+  std::unique_ptr<PostgresStore> a = Open("replica-a");
+  std::unique_ptr<PostgresStore> b = Open("replica-b");
+  ASSERT_TRUE(a && b);
+  ASSERT_TRUE(a->CreateSession(Session("s")).ok());
+  std::atomic<bool> stop{false};
+  std::atomic<int> a_errors{0};
+  std::thread flipper([&]() {
+    while (!stop.load()) {
+      absl::StatusOr<int64_t> fence = a->AcquireLease("s");
+      if (fence.ok()) {
+        if (!a->ReleaseLease("s", *fence).ok()) ++a_errors;
+      } else if (!absl::IsUnavailable(fence.status())) {
+        ++a_errors;
+      }
+    }
+  });
+  int taken = 0;
+  int refused = 0;
+  int64_t last_fence = 0;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+  while (std::chrono::steady_clock::now() < end) {
+    absl::StatusOr<int64_t> fence = b->AcquireLease("s");
+    if (fence.ok()) {
+      ++taken;
+      EXPECT_GT(*fence, last_fence);
+      last_fence = *fence;
+      ASSERT_TRUE(b->ReleaseLease("s", *fence).ok());
+    } else {
+      ASSERT_TRUE(absl::IsUnavailable(fence.status())) << fence.status();
+      ++refused;
+    }
+  }
+  stop = true;
+  flipper.join();
+  EXPECT_EQ(a_errors.load(), 0);
+  EXPECT_GT(taken, 0);
+  EXPECT_GT(refused, 0);
+}
+
 TEST_F(PostgresStoreTest, AnExpiredLeaseIsTakenOverAndItsOldOwnerFenced) {
   const auto ttl = std::chrono::milliseconds(600);
   std::unique_ptr<PostgresStore> a = Open("replica-a", ttl);
