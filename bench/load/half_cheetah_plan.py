@@ -15,13 +15,13 @@ objective within 5 % of a 10x longer solve. Steps:
    server's: refit once the data grew by 5 %).
 3. A third session with the default policy and a 10x longer solve (10x the Ipopt
    iterations per start, a 10x tighter tolerance) plans at the same states
-   from the same data; the ratio of the objectives (summed entropy, nats; both
-   sessions fit the same hyperparameters from the same data) says how much the
-   normal solve leaves on the table.
+   from the same data; the shortfall of the objectives (summed entropy, nats,
+   maximised; both sessions fit the same hyperparameters from the same data) says
+   how much the normal solve leaves on the table.
 
     bench/load/half_cheetah_plan.py [--server build/release/server/excite-server]
         [--sim build/release/sim/excite-sim] [--n 500] [--steps 20] [--seed 1]
-        [--min_ratio R]   # exit 1 if a plan's objective is below R x the long one's
+        [--max_shortfall F]   # exit 1 if a plan falls short of the long one's by > F
 """
 import argparse
 import csv
@@ -32,6 +32,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "client", "python"))
+import grpc  # noqa: E402
 import numpy as np  # noqa: E402
 import excite  # noqa: E402
 from excite.client import Client  # noqa: E402
@@ -71,11 +72,24 @@ def session_config(policy, long_solve):
     return config
 
 
+def fit_first(session):
+    """The cold fit, not timed: a Predict whose refit may need more than one call's
+    time budget (the server keeps its progress; the next call continues it)."""
+    for _ in range(20):
+        try:
+            session.predict(np.zeros((1, DX + DU)))
+            return
+        except grpc.RpcError as e:
+            if e.code() != grpc.StatusCode.DEADLINE_EXCEEDED:
+                raise
+    sys.exit("the first fit did not finish in 20 calls")
+
+
 def run(client, policy, long_solve, xs, us, nexts, n, steps):
     session = client.create_session(session_config(policy, long_solve))
     try:
         session.add(xs[:n], us[:n], nexts[:n])
-        session.predict(np.zeros((1, DX + DU)))  # the cold fit, not timed
+        fit_first(session)
         times, objectives = [], []
         for k in range(n, n + steps):
             session.add(xs[k:k + 1], us[k:k + 1], nexts[k:k + 1])
@@ -95,9 +109,9 @@ def main():
     parser.add_argument("--n", type=int, default=500)
     parser.add_argument("--steps", type=int, default=20)
     parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--min_ratio", type=float, default=0.0,
-                        help="fail if any objective is below this fraction of the "
-                             "10x longer solve's (0: no check)")
+    parser.add_argument("--max_shortfall", type=float, default=float("inf"),
+                        help="fail if a plan's objective falls short of the 10x longer "
+                             "solve's by more than this fraction of it")
     args = parser.parse_args()
     server, address = start_server(args.server)
     try:
@@ -115,13 +129,18 @@ def main():
             print(f"{name}: PlanInputs p50 {np.median(ms):.0f} ms, slowest "
                   f"{ms.max():.0f} ms, objective mean {objective.mean():.3f} nats",
                   flush=True)
-        ratio = results[("default", False)] / results[("default", True)]
-        gap = np.abs(results[("default", False)] - results[("default", True)])
-        print(f"objective / 10x longer solve's: median {np.median(ratio):.4f}, "
-              f"min {ratio.min():.4f}, max {ratio.max():.4f}; |difference| median "
-              f"{np.median(gap):.3f} nats, max {gap.max():.3f}", flush=True)
-        if not np.all(np.isfinite(ratio)) or ratio.min() < args.min_ratio:
-            sys.exit(f"an objective is below {args.min_ratio} x the longer solve's")
+        # The objective is maximised and may be negative (small variances): the
+        # shortfall is what the normal solve leaves below the longer one, relative
+        # to the longer one's size (negative: the normal solve found more).
+        normal, longer = results[("default", False)], results[("default", True)]
+        shortfall = (longer - normal) / np.abs(longer)
+        print(f"shortfall against the 10x longer solve: median {np.median(shortfall):.4f}, "
+              f"worst {shortfall.max():.4f}, best {shortfall.min():.4f}; in nats: "
+              f"median {np.median(longer - normal):.3f}, worst "
+              f"{(longer - normal).max():.3f}", flush=True)
+        if not np.all(np.isfinite(shortfall)) or shortfall.max() > args.max_shortfall:
+            sys.exit(f"a plan's objective is more than {args.max_shortfall} below the "
+                     "longer solve's")
     finally:
         server.terminate()
         server.wait()
