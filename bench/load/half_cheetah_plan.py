@@ -16,8 +16,9 @@ objective within 5 % of a 10x longer solve. Steps:
 3. A third session with the default policy and a 10x longer solve (10x the Ipopt
    iterations per start, a 10x tighter tolerance) plans at the same states
    from the same data; the shortfall of the objectives (summed entropy, nats,
-   maximised; both sessions fit the same hyperparameters from the same data) says
-   how much the normal solve leaves on the table.
+   maximised) says how much the normal solve leaves on the table. (A cold fit that
+   needs more than one call's budget runs in pieces, so the two sessions may end
+   with slightly different hyperparameters.)
 
     bench/load/half_cheetah_plan.py [--server build/release/server/excite-server]
         [--sim build/release/sim/excite-sim] [--n 500] [--steps 20] [--seed 1]
