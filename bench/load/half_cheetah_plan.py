@@ -25,7 +25,6 @@ objective within 5 % of a 10x longer solve. Steps:
         [--max_shortfall F]   # exit 1 if a plan falls short of the long one's by > F
 """
 import argparse
-import csv
 import os
 import subprocess
 import sys
@@ -43,8 +42,7 @@ CONFIG = os.path.join(ROOT, "sim", "configs", "half_cheetah.textproto")
 DX, DU = 18, 6
 
 
-def start_server(binary):
-    data_dir = tempfile.mkdtemp(prefix="excite-cheetah-plan-")
+def start_server(binary, data_dir):
     server = subprocess.Popen([binary, "--listen=127.0.0.1:0", f"--data_dir={data_dir}",
                                "--log_level=warning"], stdout=subprocess.PIPE, text=True)
     port = server.stdout.readline().strip().rsplit(":", 1)[1]
@@ -57,8 +55,7 @@ def collect(args, address, path):
                     f"--seed={args.seed}", f"--trajectory={path}",
                     "--session_override=refit { growth: 0.05 }"],
                    check=True, stdout=subprocess.DEVNULL)
-    with open(path) as f:
-        rows = np.array([[float(v) for v in row[1:]] for row in list(csv.reader(f))[1:]])
+    rows = np.loadtxt(path, delimiter=",", skiprows=1)[:, 1:]  # no step column
     return rows[:, :DX], rows[:, DX:DX + DU], rows[:, DX + DU:]
 
 
@@ -114,7 +111,12 @@ def main():
                         help="fail if a plan's objective falls short of the 10x longer "
                              "solve's by more than this fraction of it")
     args = parser.parse_args()
-    server, address = start_server(args.server)
+    with tempfile.TemporaryDirectory(prefix="excite-cheetah-plan-") as data_dir:
+        measure(args, data_dir)
+
+
+def measure(args, data_dir):
+    server, address = start_server(args.server, data_dir)
     try:
         client = Client(address, timeout_s=3600, plan_timeout_s=3600)
         with tempfile.TemporaryDirectory() as tmp:
