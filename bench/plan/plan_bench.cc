@@ -16,6 +16,8 @@
 #include "server/gp/dynamics_model.h"
 #include "server/gp/refit_schedule.h"
 #include "server/plan/planner.h"
+#include "server/plan/prbs_signal.h"
+#include "sim/plants/half_cheetah.h"
 #include "sim/plants/pendulum.h"
 
 namespace excite::plan {
@@ -89,6 +91,119 @@ PlanOptions PendulumOptions(Strategy strategy) {
 
 // BM_RecStep's third argument.
 constexpr Strategy kStepStrategies[] = {Strategy::kRec, Strategy::kMi, Strategy::kRoi};
+
+// Half-cheetah transitions (sim/configs/half_cheetah.textproto: dt 0.05 s, |u| <= 0.5)
+// from the config's rest pose under the server's PRBS (held 5 samples), as
+// `excite-sim --strategy=prbs` collects them; measurement noise variance 0.001.
+Transitions HalfCheetahData(int n, uint64_t seed = 1) {
+  auto plant = sim::HalfCheetah::Create(0.05, 5);
+  if (!plant.ok()) std::abort();
+  const Eigen::MatrixXd inputs =
+      PrbsSignal(Eigen::VectorXd::Constant(6, -0.5), Eigen::VectorXd::Constant(6, 0.5), 5,
+                 seed, 0, n);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, std::sqrt(0.001));
+  Transitions t{Eigen::MatrixXd(n, 18), Eigen::MatrixXd(n, 6), Eigen::MatrixXd(n, 18)};
+  Eigen::VectorXd x(18);
+  x << -0.016025, -0.038751, 0.020321, -0.000538, 0.025903, -0.033122, -0.037508,
+      -0.093755, -0.071080, 0.000282, -0.000221, 0.000314, 0.000739, 0.000673, 0.000575,
+      -0.000913, -0.000978, -0.001037;
+  Eigen::VectorXd u(6);
+  const auto noisy = [&](const Eigen::VectorXd& v) {
+    Eigen::VectorXd out = v;
+    for (Eigen::Index i = 0; i < out.size(); ++i) out(i) += noise(rng);
+    return out;
+  };
+  for (int k = 0; k < n; ++k) {
+    u = inputs.row(k).transpose();
+    const Eigen::VectorXd x1 = (*plant)->Step(x, u);
+    t.states.row(k) = noisy(x).transpose();
+    t.inputs.row(k) = u.transpose();
+    t.next.row(k) = noisy(x1).transpose();
+    x = x1;
+  }
+  return t;
+}
+
+// The half-cheetah config's region of interest (state_bounds) and input bounds.
+Eigen::VectorXd HalfCheetahStateHalfWidth() {
+  Eigen::VectorXd h(18);
+  h << 1.5, 0.175, 0.6, 0.56, 0.6, 0.5, 0.6, 0.6, 0.5, 2.0, 1.5, 3.0, 10.0, 10.0, 10.0,
+      10.0, 10.0, 10.0;
+  return h;
+}
+
+// One rec PlanInputs of the half-cheetah at n samples, M = 10 (Issue 13's target:
+// <= 1 s). The model's hyperparameters come from one cold fit on all n samples (about
+// 50 s at n = 500 on 2 cores, not timed). Each iteration plans from the next measured
+// state with the previous plan's warm start; the model does not change between plans.
+void BM_HalfCheetahPlan(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const int fitted = n;
+  const Transitions data = HalfCheetahData(n + 20);
+  gp::DynamicsModelOptions o;
+  o.state_dim = 18;
+  o.input_dim = 6;
+  o.measurement_noise_variance = 0.001;
+  o.input_center = Eigen::VectorXd::Zero(24);
+  o.input_center(1) = -0.075;
+  o.input_center(3) = 0.04;
+  o.input_center(5) = 0.1;
+  o.input_half_width = Eigen::VectorXd::Constant(24, 0.5);
+  o.input_half_width.head(18) = HalfCheetahStateHalfWidth();
+  auto model = gp::DynamicsModel::Create(o);
+  if (!model.ok() ||
+      !model
+           ->AddSamples(data.states.topRows(fitted), data.inputs.topRows(fitted),
+                        data.next.topRows(fitted))
+           .ok() ||
+      !model->Refit().ok() ||
+      !model
+           ->AddSamples(data.states.middleRows(fitted, n - fitted),
+                        data.inputs.middleRows(fitted, n - fitted),
+                        data.next.middleRows(fitted, n - fitted))
+           .ok()) {
+    state.SkipWithError("model setup failed");
+    return;
+  }
+  PlanOptions options;
+  options.strategy = Strategy::kRec;
+  options.horizon = 10;
+  options.input_lower = Eigen::VectorXd::Constant(6, -0.5);
+  options.input_upper = Eigen::VectorXd::Constant(6, 0.5);
+  Planner planner(options);
+  std::vector<double> plan_ms;
+  double iterations = 0.0, objective = 0.0;
+  int k = n;
+  for (auto _ : state) {
+    const Clock::time_point t0 = Clock::now();
+    PlanSummary summary;
+    auto plan =
+        planner.PlanInputs(*model, data.next.row(k).transpose(), PlanLimits{}, &summary);
+    plan_ms.push_back(Ms(Clock::now() - t0));
+    k = std::min(k + 1, n + 19);
+    if (!plan.ok()) {
+      state.SkipWithError("plan failed");
+      break;
+    }
+    iterations += summary.iterations;
+    objective += summary.objective;
+    benchmark::DoNotOptimize(plan->inputs.data());
+  }
+  if (plan_ms.empty()) return;
+  std::sort(plan_ms.begin(), plan_ms.end());
+  state.counters["plan_ms_p50"] = plan_ms[plan_ms.size() / 2];
+  state.counters["plan_ms_max"] = plan_ms.back();
+  const auto avg = benchmark::Counter::kAvgIterations;
+  state.counters["ipopt_iters"] = benchmark::Counter(iterations, avg);
+  state.counters["objective"] = benchmark::Counter(objective, avg);
+}
+// Args: samples.
+BENCHMARK(BM_HalfCheetahPlan)
+    ->Arg(500)
+    ->Iterations(10)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // One receding-horizon step at n ~ 300: add the newest transition, refit
 // (hyperparameters warm-started from the previous fit), plan from the newest

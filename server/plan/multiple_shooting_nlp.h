@@ -83,6 +83,12 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   // Best feasible point evaluated so far (empty if none) and its objective J.
   const Eigen::VectorXd& best_feasible() const { return best_feasible_; }
   double best_feasible_objective() const { return best_feasible_objective_; }
+  // The last point the model was evaluated at (empty if none, or if the model was
+  // not finite there): during a solve, in the StopFn, the newest iterate or trial
+  // point.
+  Eigen::VectorXd last_point() const {
+    return cache_valid_ && cache_finite_ ? cached_w_ : Eigen::VectorXd();
+  }
   // The point passed to finalize_solution (empty if never finalised).
   const Eigen::VectorXd& final_point() const { return final_point_; }
   int iterations() const { return iterations_; }

@@ -279,6 +279,9 @@ absl::StatusOr<Plan> Planner::PlanTrajectory(const gp::DynamicsPredictor& model,
   ShootingSettings settings;
   settings.max_iterations = options_.max_iterations;
   settings.tolerance = options_.tolerance;
+  // Ten times Ipopt's tol: a 10x longer solve (10x the iterations, a 10x tighter
+  // tol) also waits 10x longer for a 10x smaller improvement.
+  settings.stall_tolerance = 10.0 * options_.tolerance;
   settings.objective_scaling =
       options_.strategy == Strategy::kMi || options_.strategy == Strategy::kRoi
           ? kInformationObjectiveScaling

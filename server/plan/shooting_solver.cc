@@ -1,14 +1,23 @@
 #include "server/plan/shooting_solver.h"
 
 #include <IpTNLP.hpp>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
+#include "server/plan/ipopt_lock.h"
 #include "server/plan/ipopt_solve.h"
 #include "server/plan/multiple_shooting_nlp.h"
 
 namespace excite::plan {
 namespace {
+
+// Iterations between two checks of the stall rule, and the first check: a rollout
+// costs about two evaluations on the pendulum (M one-point predictions in a chain),
+// whose solves mostly end within 10 iterations and then pay nothing for the rule.
+constexpr int kStallCheckEvery = 5;
+constexpr int kFirstStallCheck = 10;
 
 PlanStatus FromIpopt(Ipopt::ApplicationReturnStatus status) {
   switch (status) {
@@ -79,8 +88,56 @@ ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
     }
     if (!finite[s]) continue;  // the model is not finite along this start
     const Eigen::Index horizon = starts[s].rows();
-    Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
-        model, objective, x0, lower, upper, starts[s], initial_states[s], stopped);
+    const Eigen::MatrixXd lower_rows = lower.transpose().replicate(horizon, 1);
+    const Eigen::MatrixXd upper_rows = upper.transpose().replicate(horizon, 1);
+    Ipopt::SmartPtr<MultipleShootingNlp> nlp;
+    const auto roll_out = [&](const Eigen::VectorXd& w) {
+      const Eigen::MatrixXd inputs =
+          nlp->InputsOf(w).cwiseMax(lower_rows).cwiseMin(upper_rows);
+      Hallucination hallucination{settings.optimism_beta,
+                                  nlp->EtaOf(w).cwiseMax(-1.0).cwiseMin(1.0)};
+      return RollOut(model, x0, inputs,
+                     settings.optimism_beta > 0.0 ? &hallucination : nullptr);
+    };
+    // The stall rule (ShootingSettings::stall_tolerance), in the NLP's per-iteration
+    // poll; a stalled start ends like a converged one, and the next start runs.
+    const int stall_window = settings.max_iterations / 10;
+    int iteration = 0, best_iteration = 0;
+    double best_value = std::numeric_limits<double>::infinity();
+    double best_violation = std::numeric_limits<double>::infinity();
+    bool stalled = false;
+    const auto stop_or_stall = [&] {
+      if (stopped()) return true;
+      ++iteration;
+      if (settings.stall_tolerance <= 0.0 || iteration < kFirstStallCheck ||
+          iteration % kStallCheckEvery != 0) {
+        return false;
+      }
+      const Eigen::VectorXd w = nlp->last_point();
+      if (w.size() != nlp->num_variables()) return false;
+      const IpoptCallbackUnlock unlocked;  // the rollout is model work
+      Rollout r = roll_out(w);
+      if (!r.valid) return false;
+      const double value = RolloutObjective(objective, r);
+      const double violation = SafeBoxViolation(settings.safe_box, r.means, r.variances);
+      const double margin =
+          settings.stall_tolerance * std::max(1.0, std::abs(best_value));
+      if (std::isfinite(value) &&
+          (violation < best_violation ||
+           (violation == best_violation && value < best_value - margin))) {
+        best_iteration = iteration;
+      }
+      if (std::isfinite(value) && (violation < best_violation ||
+                                   (violation == best_violation && value < best_value))) {
+        best_value = value;
+        best_violation = violation;
+      }
+      consider(std::move(r), static_cast<int>(s));
+      stalled = iteration - best_iteration >= stall_window;
+      return stalled;
+    };
+    nlp = new MultipleShootingNlp(model, objective, x0, lower, upper, starts[s],
+                                  initial_states[s], stop_or_stall);
     nlp->SetSafeBox(settings.safe_box);
     nlp->SetOptimism(settings.optimism_beta);
     IpoptSettings ipopt;
@@ -91,21 +148,13 @@ ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
         SolveTnlp(Ipopt::SmartPtr<Ipopt::TNLP>(Ipopt::GetRawPtr(nlp)), ipopt);
     ++result.starts;
     result.iterations += nlp->iterations();
-    start_status[s] = FromIpopt(outcome.status);
-    const Eigen::MatrixXd lower_rows = lower.transpose().replicate(horizon, 1);
-    const Eigen::MatrixXd upper_rows = upper.transpose().replicate(horizon, 1);
+    start_status[s] = stalled ? PlanStatus::kConverged : FromIpopt(outcome.status);
     for (const Eigen::VectorXd* w : {&nlp->best_feasible(), &nlp->final_point()}) {
       if (w->size() != nlp->num_variables() || !w->allFinite()) continue;
       if (w == &nlp->final_point() && *w == nlp->best_feasible()) continue;  // done
-      const Eigen::MatrixXd inputs =
-          nlp->InputsOf(*w).cwiseMax(lower_rows).cwiseMin(upper_rows);
-      Hallucination hallucination{settings.optimism_beta,
-                                  nlp->EtaOf(*w).cwiseMax(-1.0).cwiseMin(1.0)};
-      consider(RollOut(model, x0, inputs,
-                       settings.optimism_beta > 0.0 ? &hallucination : nullptr),
-               static_cast<int>(s));
+      consider(roll_out(*w), static_cast<int>(s));
     }
-    if (nlp->stopped()) {
+    if (nlp->stopped() && !stalled) {
       result.stopped = true;
       break;
     }

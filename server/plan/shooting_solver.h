@@ -15,8 +15,13 @@
 namespace excite::plan {
 
 struct ShootingSettings {
-  int max_iterations = 100;        // Ipopt iterations per start
-  double tolerance = 1e-4;         // Ipopt tol
+  int max_iterations = 100;  // Ipopt iterations per start
+  double tolerance = 1e-4;   // Ipopt tol
+  // Stall rule: from a start's 10th Ipopt iteration on, every 5th, its newest point
+  // is rolled out (a candidate plan like the others); the start ends, as converged,
+  // once its best rollout has not improved by more than stall_tolerance x
+  // max(1, |best|) for max_iterations / 10 iterations. 0 turns it off.
+  double stall_tolerance = 0.0;
   double objective_scaling = 1.0;  // Ipopt obj_scaling_factor
   SafeBox safe_box;                // state constraints (inactive by default)
   // > 0: optimistic dynamics (MultipleShootingNlp::SetOptimism); the plans are
@@ -44,7 +49,8 @@ struct ShootingResult {
 // start with a finite rollout is solved by Ipopt (MultipleShootingNlp with
 // `objective`, through SolveTnlp, i.e. under the process-wide Ipopt mutex, with
 // analytic first derivatives and a limited-memory Hessian), and the NLP's best
-// feasible and final points are rolled out again (inputs clipped into the bounds).
+// feasible and final points are rolled out again (inputs clipped into the bounds),
+// as are the points the stall rule checks (ShootingSettings::stall_tolerance).
 // With optimism, each start begins with eta = 0 (the mean) and the NLP's points
 // are rolled out with their hallucinated controls. Returns the rollout with the
 // lowest objective (evaluated on the rollout, where the dynamics hold exactly); with an
