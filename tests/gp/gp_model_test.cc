@@ -140,6 +140,75 @@ TEST(GpModelTest, PredictJacobiansMatchFiniteDifferences) {
   ExpectJacobiansMatchFiniteDifferences(gp, MakeData(6, d, 6).x);
 }
 
+// Predict with Jacobians from a kept K^-1 (one product) against the triangular
+// solves, which the finite-difference test above checks: equal to rounding, also
+// after row appends that grow the inverse by blocks (across the initial capacity
+// of 16 several times); not used where K may be ill-conditioned.
+TEST(GpModelTest, KeptInverseGivesTheSamePredictionsThroughAppends) {
+  const int d = 3;
+  const Data data = MakeData(70, d, 8);
+  const Hyperparameters h = MakeHyperparameters(d);
+  GpModel kept, solved;
+  ASSERT_TRUE(kept.Reset(data.x.topRows(10), data.y.head(10), h).ok());
+  ASSERT_TRUE(solved.Reset(data.x.topRows(10), data.y.head(10), h).ok());
+  kept.KeepInverse();
+  EXPECT_TRUE(kept.uses_inverse());
+  EXPECT_FALSE(solved.uses_inverse());
+  const Eigen::MatrixXd test = MakeData(9, d, 9).x;
+  const auto expect_same = [&](int n) {
+    Eigen::VectorXd m1, v1, m2, v2;
+    Eigen::MatrixXd jm1, jv1, jm2, jv2;
+    kept.Predict(test, &m1, &v1, &jm1, &jv1);
+    solved.Predict(test, &m2, &v2, &jm2, &jv2);
+    EXPECT_LT((m1 - m2).cwiseAbs().maxCoeff(), 1e-12) << n;
+    EXPECT_LT((v1 - v2).cwiseAbs().maxCoeff(), 1e-10 * h.signal_variance) << n;
+    EXPECT_LT((jm1 - jm2).cwiseAbs().maxCoeff(), 1e-10 * jm2.cwiseAbs().maxCoeff()) << n;
+    EXPECT_LT((jv1 - jv2).cwiseAbs().maxCoeff(), 1e-9 * jv2.cwiseAbs().maxCoeff()) << n;
+    // The variance without Jacobians (triangular solve) is the same number.
+    Eigen::VectorXd v3;
+    kept.Predict(test, nullptr, &v3, nullptr, nullptr);
+    EXPECT_LT((v1 - v3).cwiseAbs().maxCoeff(), 1e-10 * h.signal_variance) << n;
+  };
+  expect_same(10);
+  for (int i = 10; i < 70; ++i) {
+    ASSERT_TRUE(kept.AddSample(data.x.row(i).transpose(), data.y(i)).ok());
+    ASSERT_TRUE(solved.AddSample(data.x.row(i).transpose(), data.y(i)).ok());
+    if (i % 20 == 0) expect_same(i + 1);
+  }
+  expect_same(70);
+  EXPECT_TRUE(kept.uses_inverse());
+  // With almost no noise K may be near-singular (cond(K) up to 1 + n sf2 / noise):
+  // the inverse is not used, and the predictions are the solves', bit for bit.
+  Hyperparameters tight = h;
+  tight.noise_variance = 1e-7;  // bound 1 + 20 x 1.3 / 1e-7 > 1e6
+  GpModel kept_tight, solved_tight;
+  ASSERT_TRUE(kept_tight.Reset(data.x.topRows(20), data.y.head(20), tight).ok());
+  ASSERT_TRUE(solved_tight.Reset(data.x.topRows(20), data.y.head(20), tight).ok());
+  kept_tight.KeepInverse();
+  EXPECT_FALSE(kept_tight.uses_inverse());
+  Eigen::VectorXd m1, v1, m2, v2;
+  Eigen::MatrixXd jm1, jv1, jm2, jv2;
+  kept_tight.Predict(test, &m1, &v1, &jm1, &jv1);
+  solved_tight.Predict(test, &m2, &v2, &jm2, &jv2);
+  EXPECT_EQ(v1, v2);
+  EXPECT_EQ(jv1, jv2);
+  // A model that outgrows the bound by appends stops using it. Noise 1.3e-4:
+  // the bound passes 1e6 at n = 100.
+  tight.noise_variance = 1.3e-4;
+  GpModel growing;
+  ASSERT_TRUE(growing.Reset(data.x.topRows(60), data.y.head(60), tight).ok());
+  growing.KeepInverse();
+  EXPECT_TRUE(growing.uses_inverse());
+  const Data more = MakeData(50, d, 10);
+  for (int i = 0; i < 50; ++i) {
+    ASSERT_TRUE(growing.AddSample(more.x.row(i).transpose(), more.y(i)).ok());
+  }
+  EXPECT_FALSE(growing.uses_inverse());
+  // New hyperparameters drop the inverse (a fit's factorisations do not pay for it).
+  ASSERT_TRUE(kept.SetHyperparameters(h).ok());
+  EXPECT_FALSE(kept.uses_inverse());
+}
+
 TEST(GpModelTest, IllConditionedDataStaysFinite) {
   // 3 distinct points repeated 30 times each, noise 1e-12.
   const Data base = MakeData(3, 2, 8, 0.0);
