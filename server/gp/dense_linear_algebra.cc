@@ -1,6 +1,5 @@
 #include "server/gp/dense_linear_algebra.h"
 
-#include <cblas.h>
 #include <lapack.h>
 
 #include <Eigen/Dense>
@@ -80,21 +79,6 @@ void SolveLower(const Eigen::Ref<const Eigen::MatrixXd>& l,
 void SolveLowerTransposed(const Eigen::Ref<const Eigen::MatrixXd>& l,
                           Eigen::Ref<Eigen::MatrixXd> b) {
   Solve(l, b, 'T');
-}
-
-void Multiply(const Eigen::Ref<const Eigen::MatrixXd>& a,
-              const Eigen::Ref<const Eigen::MatrixXd>& b, Eigen::Ref<Eigen::MatrixXd> c) {
-  assert(a.cols() == b.rows() && c.rows() == a.rows() && c.cols() == b.cols());
-  if (c.rows() == 0 || c.cols() == 0) return;
-  if (a.cols() == 0) {
-    c.setZero();
-    return;
-  }
-  const blas::BlasLock lock;
-  cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, static_cast<int>(a.rows()),
-              static_cast<int>(b.cols()), static_cast<int>(a.cols()), 1.0, a.data(),
-              static_cast<int>(Stride(a)), b.data(), static_cast<int>(Stride(b)), 0.0,
-              c.data(), static_cast<int>(std::max<Eigen::Index>(1, c.outerStride())));
 }
 
 }  // namespace excite::gp

@@ -32,12 +32,6 @@ void SolveLower(const Eigen::Ref<const Eigen::MatrixXd>& l,
 void SolveLowerTransposed(const Eigen::Ref<const Eigen::MatrixXd>& l,
                           Eigen::Ref<Eigen::MatrixXd> b);
 
-// C = A B (dgemm), C of a.rows() x b.cols(). For small b.cols() one product costs
-// less than two triangular solves (dtrsm), for which OpenBLAS repacks the
-// triangle at every call (bench/gp: n = 500, 10 columns: 199 against 349 us).
-void Multiply(const Eigen::Ref<const Eigen::MatrixXd>& a,
-              const Eigen::Ref<const Eigen::MatrixXd>& b, Eigen::Ref<Eigen::MatrixXd> c);
-
 }  // namespace excite::gp
 
 #endif  // EXCITE_SERVER_GP_DENSE_LINEAR_ALGEBRA_H_

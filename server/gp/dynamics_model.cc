@@ -190,9 +190,8 @@ int64_t DynamicsModel::PeakBytes(int64_t samples, int state_dim, int input_dim,
            static_cast<int64_t>(sizeof(double)) * n * (z_dim + state_dim) + fit;
   }
   const int64_t capacity = std::max<int64_t>(16, n + n / 4 + 8);  // GpModel's room
-  // Per output: Cholesky factor and K^-1 (GpModel::KeepInverse), both with the room,
-  // K while it is fitted, inputs and scaled inputs, three vectors.
-  const int64_t per_output = 2 * capacity * capacity + n * n + 2 * n * z_dim + 3 * n;
+  // Per output: Cholesky factor, cached K, inputs and scaled inputs, three vectors.
+  const int64_t per_output = capacity * capacity + n * n + 2 * n * z_dim + 3 * n;
   // The model's own copy of inputs and targets.
   const int64_t shared = n * (z_dim + state_dim);
   // A refit's gradient per output being fitted: L^-1, K^-1, W = alpha alpha^T -
@@ -403,8 +402,6 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
       if (st.ok() && sparse) {
         sparse_fit_lml[j] = gps[j].log_marginal_likelihood();
         st = sparse_gps[j].Reset(zn, std::move(y_all), h);
-      } else if (st.ok()) {
-        gps[j].KeepInverse();  // for the planner's Jacobians
       }
       results[j] = st.ok() ? absl::StatusOr<FitSummary>(FitSummary{}) : st;
       return;
@@ -434,11 +431,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
         s.options.fit.seed ^ SplitMix64(static_cast<uint64_t>(s.refits) * 1024u + j));
     results[j] =
         FitHyperparameters(fit_options, noise, s.options.fit_noise, warm, &gps[j], stop);
-    if (!results[j].ok()) return;
-    if (!sparse) {
-      gps[j].KeepInverse();  // for the planner's Jacobians
-      return;
-    }
+    if (!sparse || !results[j].ok()) return;
     sparse_fit_lml[j] = gps[j].log_marginal_likelihood();
     if (absl::Status st =
             sparse_gps[j].Reset(zn, std::move(y_all), gps[j].hyperparameters());

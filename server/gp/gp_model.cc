@@ -17,11 +17,6 @@ constexpr double kLog2Pi = 1.8378770664093454835606594728112;
 
 bool Valid(double v) { return std::isfinite(v) && v > 0.0; }
 
-// Bound on cond(K) up to which a kept K^-1 is used: its products are then good to
-// about 1e6 x machine epsilon ~ 1e-10, as accurate as the tests ask of the
-// triangular solves. Beyond, the solves stay (they are backward stable).
-constexpr double kMaxInverseCondition = 1e6;
-
 absl::Status CheckHyperparameters(const Hyperparameters& h, Eigen::Index dim) {
   if (h.lengthscales.size() != dim) {
     return absl::InvalidArgumentError(
@@ -55,8 +50,6 @@ absl::Status GpModel::Reset(Eigen::MatrixXd x, Eigen::VectorXd y,
   y_ = std::move(y);
   n_ = static_cast<int>(y_.size());
   x_scaled_ = ScaleInputs(x_, hyperparameters_.lengthscales);
-  keep_inverse_ = use_inverse_ = false;
-  k_inverse_.resize(0, 0);
   return Factorise();
 }
 
@@ -65,31 +58,7 @@ absl::Status GpModel::SetHyperparameters(const Hyperparameters& hyperparameters)
     return s;
   hyperparameters_ = hyperparameters;
   x_scaled_ = ScaleInputs(x_, hyperparameters_.lengthscales);
-  keep_inverse_ = use_inverse_ = false;
-  k_inverse_.resize(0, 0);
   return Factorise();
-}
-
-void GpModel::KeepInverse() {
-  keep_inverse_ = true;
-  kf_.resize(0, 0);
-  ComputeInverse();
-}
-
-bool GpModel::InverseIsAccurate(int n) const {
-  // K = K_f + (noise + jitter) I with K_f >= 0 and tr(K_f) = n sf2.
-  const double floor = hyperparameters_.noise_variance + jitter_;
-  return 1.0 + n * hyperparameters_.signal_variance / floor <= kMaxInverseCondition;
-}
-
-void GpModel::ComputeInverse() {
-  use_inverse_ = keep_inverse_ && n_ > 0 && InverseIsAccurate(n_);
-  if (!use_inverse_) {
-    k_inverse_.resize(0, 0);
-    return;
-  }
-  k_inverse_.resize(l_.rows(), l_.cols());
-  k_inverse_.topLeftCorner(n_, n_) = InverseFromCholesky(l_.topLeftCorner(n_, n_));
 }
 
 absl::Status GpModel::SetTargets(Eigen::VectorXd y) {
@@ -133,7 +102,6 @@ absl::Status GpModel::Factorise() {
     if (ok) {
       log_det_ = 2.0 * block.diagonal().array().log().sum();
       jitter_ = jitter;
-      ComputeInverse();
       return absl::OkStatus();
     }
     jitter = jitter == 0.0 ? 1e-10 * sf2 : 10.0 * jitter;
@@ -145,8 +113,6 @@ absl::Status GpModel::Factorise() {
   beta_.resize(0);
   alpha_.resize(0);
   log_det_ = 0.0;
-  use_inverse_ = false;
-  k_inverse_.resize(0, 0);
   return absl::InternalError("Cholesky factorisation failed even with jitter");
 }
 
@@ -189,25 +155,6 @@ absl::Status GpModel::AddSample(const Eigen::VectorXd& x, double y) {
     grown.topLeftCorner(n, n).triangularView<Eigen::Lower>() =
         l_.topLeftCorner(n, n).triangularView<Eigen::Lower>();
     l_.swap(grown);
-    if (use_inverse_) {
-      Eigen::MatrixXd grown_inverse(capacity, capacity);
-      grown_inverse.topLeftCorner(n, n) = k_inverse_.topLeftCorner(n, n);
-      k_inverse_.swap(grown_inverse);
-    }
-  }
-  if (use_inverse_ && !InverseIsAccurate(n + 1)) {
-    use_inverse_ = false;
-    k_inverse_.resize(0, 0);
-  }
-  if (use_inverse_) {
-    // Block inverse: with u = K^-1 k = L^-T l and the Schur complement d2,
-    // K'^-1 = [K^-1 + u u^T / d2, -u / d2; -u^T / d2, 1 / d2].
-    Eigen::VectorXd u = l;
-    SolveLowerTransposed(l_.topLeftCorner(n, n), u);
-    k_inverse_.topLeftCorner(n, n).noalias() += (u / d2) * u.transpose();
-    k_inverse_.col(n).head(n) = -u / d2;
-    k_inverse_.row(n).head(n) = k_inverse_.col(n).head(n).transpose();
-    k_inverse_(n, n) = 1.0 / d2;
   }
   const double d = std::sqrt(d2);
   l_.row(n).head(n) = l.transpose();
@@ -277,25 +224,17 @@ void GpModel::Predict(const Eigen::MatrixXd& xs, Eigen::VectorXd* mean,
         (sf2 - v.colwise().squaredNorm().array()).cwiseMax(0.0).matrix().transpose();
     return;
   }
-  // W = K^-1 K(X, xs); d var_i / d xs_il = 2 sum_j k_ji w_ji (xs_il - x_jl) / l_l^2.
-  Eigen::MatrixXd c(n_, xs.rows());  // K(X, xs) o W
-  if (use_inverse_) {
-    Multiply(k_inverse_.topLeftCorner(n_, n_), v, c);
-    c.array() *= v.array();
-  } else {
-    c = v;
-    SolveLower(l_.topLeftCorner(n_, n_), v);
-    if (variance != nullptr) {
-      *variance =
-          (sf2 - v.colwise().squaredNorm().array()).cwiseMax(0.0).matrix().transpose();
-    }
-    SolveLowerTransposed(l_.topLeftCorner(n_, n_), v);
-    c.array() *= v.array();
+  const Eigen::MatrixXd k = v;
+  SolveLower(l_.topLeftCorner(n_, n_), v);
+  if (variance != nullptr) {
+    *variance =
+        (sf2 - v.colwise().squaredNorm().array()).cwiseMax(0.0).matrix().transpose();
   }
+  // w = L^T \ V = K^-1 K(X, xs); d var_i / d xs_il =
+  // 2 sum_j k_ji w_ji (xs_il - x_jl) / l_l^2.
+  SolveLowerTransposed(l_.topLeftCorner(n_, n_), v);
+  const Eigen::MatrixXd c = k.cwiseProduct(v);  // n x m
   const Eigen::VectorXd c_sums = c.colwise().sum().transpose();
-  if (use_inverse_ && variance != nullptr) {
-    *variance = (sf2 - c_sums.array()).cwiseMax(0.0).matrix();  // k^T K^-1 k = sum c
-  }
   *variance_jacobian =
       2.0 * (xs.cwiseProduct(c_sums.replicate(1, xs.cols())) - c.transpose() * x_) *
       inv_l2.asDiagonal();

@@ -41,19 +41,7 @@ class GpModel {
 
   // Appends one sample (x: d entries) as a row append to L, O(n^2); falls back to
   // a full refactorisation (with jitter) only if the new pivot is not positive.
-  // A kept K^-1 grows by the block inverse, O(n^2).
   absl::Status AddSample(const Eigen::VectorXd& x, double y);
-
-  // Keeps K^-1 (symmetric, stored in full) beside L from now on, so that Predict
-  // with Jacobians needs one matrix product instead of two triangular solves: for
-  // models that plan. O(n^3) now, O(n^2) per AddSample after. Only while K is well
-  // conditioned (1 + n signal_variance / (noise_variance + jitter) <= 1e6, a bound
-  // on cond(K)); beyond, Predict keeps the solves. Reset and SetHyperparameters
-  // drop it, so a fit's many factorisations do not pay for it. Frees the cached
-  // K_f (the LML gradient recomputes it).
-  void KeepInverse();
-  // True while Predict uses a kept K^-1.
-  bool uses_inverse() const { return use_inverse_; }
 
   int size() const { return n_; }
   int dim() const { return static_cast<int>(hyperparameters_.lengthscales.size()); }
@@ -79,8 +67,8 @@ class GpModel {
 
   // For m points xs (m x d): latent posterior mean and variance (m each; the
   // variance is clamped at 0). If not null, Jacobians w.r.t. xs, m x d each
-  // (row i = gradient at point i): one pass with W = K^-1 K*^T, from a kept
-  // inverse or as L^T \ (L \ K*^T). O(m n^2 + m n d). Requires size() > 0.
+  // (row i = gradient at point i): one pass with V = L \ K*^T and
+  // w = L^T \ V. O(m n^2 + m n d). Requires size() > 0.
   void Predict(const Eigen::MatrixXd& xs, Eigen::VectorXd* mean,
                Eigen::VectorXd* variance, Eigen::MatrixXd* mean_jacobian,
                Eigen::MatrixXd* variance_jacobian) const;
@@ -110,8 +98,6 @@ class GpModel {
 
  private:
   absl::Status Factorise();
-  void ComputeInverse();
-  bool InverseIsAccurate(int n) const;
   // Views of L and L^T (n x n).
   auto LowerFactor() const {
     return l_.topLeftCorner(n_, n_).triangularView<Eigen::Lower>();
@@ -131,9 +117,6 @@ class GpModel {
   Eigen::VectorXd alpha_;  // K^-1 y
   double log_det_ = 0.0;
   double jitter_ = 0.0;
-  bool keep_inverse_ = false;  // KeepInverse() was called
-  bool use_inverse_ = false;   // k_inverse_ holds K^-1
-  Eigen::MatrixXd k_inverse_;  // as l_, top-left n x n is K^-1 (empty unless used)
 };
 
 }  // namespace excite::gp
