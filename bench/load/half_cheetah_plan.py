@@ -88,14 +88,15 @@ def run(client, policy, long_solve, xs, us, nexts, n, steps):
     try:
         session.add(xs[:n], us[:n], nexts[:n])
         fit_first(session)
-        times, objectives = [], []
+        times, objectives, iterations = [], [], []
         for k in range(n, n + steps):
             session.add(xs[k:k + 1], us[k:k + 1], nexts[k:k + 1])
             t0 = time.perf_counter()
             plan = session.plan(nexts[k])
             times.append(time.perf_counter() - t0)
             objectives.append(plan.objective)
-        return 1000 * np.array(times), np.array(objectives)
+            iterations.append(plan.iterations)
+        return 1000 * np.array(times), np.array(objectives), np.array(iterations)
     finally:
         session.delete()
 
@@ -125,13 +126,15 @@ def measure(args, data_dir):
               f"{args.seed})", flush=True)
         results = {}
         for policy, long_solve in (("paper", False), ("default", False), ("default", True)):
-            ms, objective = run(client, policy, long_solve, xs, us, nexts, args.n,
-                                args.steps)
+            ms, objective, iterations = run(client, policy, long_solve, xs, us, nexts,
+                                            args.n, args.steps)
             results[(policy, long_solve)] = objective
             name = f"{policy} refit{', 10x longer solve' if long_solve else ''}"
+            # Ipopt iterations summed over the plan's starts: a plan whose starts all
+            # run to planner.max_iterations is slow for that reason.
             print(f"{name}: PlanInputs p50 {np.median(ms):.0f} ms, slowest "
-                  f"{ms.max():.0f} ms, objective mean {objective.mean():.3f} nats",
-                  flush=True)
+                  f"{ms.max():.0f} ms, objective mean {objective.mean():.3f} nats, "
+                  f"Ipopt iterations p50 {np.median(iterations):.0f}", flush=True)
         # The objective is maximised and may be negative (small variances): the
         # shortfall is what the normal solve leaves below the longer one, relative
         # to the longer one's size (negative: the normal solve found more).
