@@ -143,7 +143,7 @@ Eigen::VectorXd HalfCheetahStateHalfWidth() {
 
 // One rec PlanInputs of the half-cheetah at n samples, M = 10 (Issue 13's target:
 // <= 1 s). The model's hyperparameters come from one cold fit on all n samples (about
-// 50 s at n = 500 on 2 cores, not timed). Each iteration plans from the next measured
+// 20 s at n = 500 on 2 cores, not timed). Each iteration plans from the next measured
 // state with the previous plan's warm start; the model does not change between plans.
 void BM_HalfCheetahPlan(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));

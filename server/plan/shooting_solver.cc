@@ -13,11 +13,55 @@
 namespace excite::plan {
 namespace {
 
-// Iterations between two checks of the stall rule, and the first check: a rollout
-// costs about two evaluations on the pendulum (M one-point predictions in a chain),
-// whose solves mostly end within 10 iterations and then pay nothing for the rule.
-constexpr int kStallCheckEvery = 5;
-constexpr int kFirstStallCheck = 10;
+// The stall rule of one start (ShootingSettings::stall_tolerance). A check, from
+// iteration kFirstStallCheck on, every kStallCheckEvery iterations, costs a rollout:
+// about two evaluations on the pendulum (M one-point predictions in a chain), whose
+// solves mostly end within 10 iterations and then pay nothing for the rule.
+class StallWatch {
+ public:
+  static constexpr int kStallCheckEvery = 5;
+  static constexpr int kFirstStallCheck = 10;
+
+  StallWatch(double tolerance, int window) : tolerance_(tolerance), window_(window) {}
+
+  // Called once per Ipopt iteration: true if this iteration's point is to be checked.
+  bool CheckDue() {
+    ++iteration_;
+    return tolerance_ > 0.0 && iteration_ >= kFirstStallCheck &&
+           iteration_ % kStallCheckEvery == 0;
+  }
+
+  // The checked rollout's safe-box violation and objective (lower is better, a
+  // smaller violation first); true once the best has not improved by the tolerance
+  // for `window` iterations.
+  bool Stalled(double violation, double value) {
+    if (std::isfinite(value)) {
+      const bool less_violating = violation < best_violation_;
+      const bool as_violating = violation == best_violation_;
+      const double margin = tolerance_ * std::max(1.0, std::abs(best_value_));
+      if (less_violating || (as_violating && value < best_value_ - margin)) {
+        best_iteration_ = iteration_;
+      }
+      if (less_violating || (as_violating && value < best_value_)) {
+        best_value_ = value;
+        best_violation_ = violation;
+      }
+    }
+    stalled_ = iteration_ - best_iteration_ >= window_;
+    return stalled_;
+  }
+
+  bool stalled() const { return stalled_; }
+
+ private:
+  const double tolerance_;
+  const int window_;
+  int iteration_ = 0;
+  int best_iteration_ = 0;
+  double best_value_ = std::numeric_limits<double>::infinity();
+  double best_violation_ = std::numeric_limits<double>::infinity();
+  bool stalled_ = false;
+};
 
 PlanStatus FromIpopt(Ipopt::ApplicationReturnStatus status) {
   switch (status) {
@@ -99,41 +143,21 @@ ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
       return RollOut(model, x0, inputs,
                      settings.optimism_beta > 0.0 ? &hallucination : nullptr);
     };
-    // The stall rule (ShootingSettings::stall_tolerance), in the NLP's per-iteration
-    // poll; a stalled start ends like a converged one, and the next start runs.
-    const int stall_window = settings.max_iterations / 10;
-    int iteration = 0, best_iteration = 0;
-    double best_value = std::numeric_limits<double>::infinity();
-    double best_violation = std::numeric_limits<double>::infinity();
-    bool stalled = false;
+    // Polled by the NLP once per iteration; a stalled start ends like a converged
+    // one, and the next start runs.
+    StallWatch stall(settings.stall_tolerance, settings.max_iterations / 10);
     const auto stop_or_stall = [&] {
       if (stopped()) return true;
-      ++iteration;
-      if (settings.stall_tolerance <= 0.0 || iteration < kFirstStallCheck ||
-          iteration % kStallCheckEvery != 0) {
-        return false;
-      }
+      if (!stall.CheckDue()) return false;
       const Eigen::VectorXd w = nlp->last_point();
       if (w.size() != nlp->num_variables()) return false;
       const IpoptCallbackUnlock unlocked;  // the rollout is model work
       Rollout r = roll_out(w);
       if (!r.valid) return false;
-      const double value = RolloutObjective(objective, r);
-      const double violation = SafeBoxViolation(settings.safe_box, r.means, r.variances);
-      const double margin =
-          settings.stall_tolerance * std::max(1.0, std::abs(best_value));
-      if (std::isfinite(value) &&
-          (violation < best_violation ||
-           (violation == best_violation && value < best_value - margin))) {
-        best_iteration = iteration;
-      }
-      if (std::isfinite(value) && (violation < best_violation ||
-                                   (violation == best_violation && value < best_value))) {
-        best_value = value;
-        best_violation = violation;
-      }
+      const bool stalled =
+          stall.Stalled(SafeBoxViolation(settings.safe_box, r.means, r.variances),
+                        RolloutObjective(objective, r));
       consider(std::move(r), static_cast<int>(s));
-      stalled = iteration - best_iteration >= stall_window;
       return stalled;
     };
     nlp = new MultipleShootingNlp(model, objective, x0, lower, upper, starts[s],
@@ -148,13 +172,14 @@ ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
         SolveTnlp(Ipopt::SmartPtr<Ipopt::TNLP>(Ipopt::GetRawPtr(nlp)), ipopt);
     ++result.starts;
     result.iterations += nlp->iterations();
-    start_status[s] = stalled ? PlanStatus::kConverged : FromIpopt(outcome.status);
+    start_status[s] =
+        stall.stalled() ? PlanStatus::kConverged : FromIpopt(outcome.status);
     for (const Eigen::VectorXd* w : {&nlp->best_feasible(), &nlp->final_point()}) {
       if (w->size() != nlp->num_variables() || !w->allFinite()) continue;
       if (w == &nlp->final_point() && *w == nlp->best_feasible()) continue;  // done
       consider(roll_out(*w), static_cast<int>(s));
     }
-    if (nlp->stopped() && !stalled) {
+    if (nlp->stopped() && !stall.stalled()) {
       result.stopped = true;
       break;
     }

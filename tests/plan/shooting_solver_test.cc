@@ -24,14 +24,10 @@ class KinkedEntropyObjective final : public ShootingObjective {
                   const std::vector<Eigen::MatrixXd>* variance_jacobians,
                   Eigen::MatrixXd* gradient) const override {
     const Eigen::ArrayXd u = z.col(2).array() - 0.3;
-    if (gradient != nullptr) {
-      entropy_.Evaluate(z, mean, variance, mean_jacobians, variance_jacobians, gradient);
-      gradient->col(2).array() += u.sign();
-      return entropy_.Evaluate(z, mean, variance, nullptr, nullptr, nullptr) +
-             u.abs().sum();
-    }
-    return entropy_.Evaluate(z, mean, variance, nullptr, nullptr, nullptr) +
-           u.abs().sum();
+    const double entropy = entropy_.Evaluate(z, mean, variance, mean_jacobians,
+                                             variance_jacobians, gradient);
+    if (gradient != nullptr) gradient->col(2).array() += u.sign();
+    return entropy + u.abs().sum();
   }
 
  private:
