@@ -11,7 +11,9 @@
 namespace excite::plan {
 
 // Options of one Ipopt solve. Everything is passed in code: no ipopt.opt is read,
-// nothing is printed (print_level 0, no banner) unless `log` asks for it.
+// nothing is printed (print_level 0, no banner) unless `log` asks for it. Linking
+// this file replaces Ipopt's CPU clock with a monotonic one (ipopt_solve.cc), so
+// max_cpu_time counts wall time.
 struct IpoptSettings {
   int max_iterations = 100;  // max_iter
   double tolerance = 1e-4;   // tol

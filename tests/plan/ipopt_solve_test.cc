@@ -3,6 +3,7 @@
 
 #include "server/plan/ipopt_solve.h"
 
+#include <IpUtils.hpp>
 #include <chrono>
 #include <mutex>
 #include <thread>
@@ -118,6 +119,28 @@ TEST(IpoptSolveTest, CallbacksLetOtherThreadsUseTheBlas) {
   EXPECT_NEAR(nlp->solution, 3.0, 1e-6);
   EXPECT_GT(nlp->blas_taken_by_another_thread, 0);
   EXPECT_EQ(nlp->ipopt_taken_by_another_thread, 0);
+}
+
+// A parabola whose objective takes 30 ms of wall time and no CPU time.
+class SleepingParabola : public Parabola {
+ public:
+  bool eval_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
+              Ipopt::Number& value) override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    return Parabola::eval_f(n, x, new_x, value);
+  }
+};
+
+// Ipopt's clock is ipopt_solve.cc's (a monotonic clock, no getrusage): its
+// max_cpu_time then counts the sleeping callback, which getrusage would not.
+TEST(IpoptSolveTest, IpoptTimesItselfWithTheMonotonicClock) {
+  Ipopt::SmartPtr<SleepingParabola> nlp = new SleepingParabola();
+  IpoptSettings settings;
+  settings.numeric_options = {{"max_cpu_time", 0.02}};
+  const IpoptOutcome outcome = SolveTnlp(nlp, settings);
+  EXPECT_TRUE(outcome.options_accepted);
+  EXPECT_EQ(outcome.status, Ipopt::Maximum_CpuTime_Exceeded);
+  EXPECT_EQ(Ipopt::SysTime(), 0.0);
 }
 
 TEST(IpoptSolveTest, CountsTheWaitWhileAnotherHoldsTheLock) {
