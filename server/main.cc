@@ -4,7 +4,6 @@
 // it accepts RPCs (other processes parse it to find the port). SIGTERM/SIGINT:
 // health NOT_SERVING, graceful shutdown (5 s grace), exit 0.
 
-#include <malloc.h>
 #include <pthread.h>
 #include <signal.h>
 
@@ -96,16 +95,6 @@ int Run(int argc, char** argv) {
     std::fprintf(stderr, "excite-server: %s\n", std::string(blas.message()).c_str());
     return 2;
   }
-
-  // Blocks of 1 MiB and more (kernel matrices from n ~ 360) are mapped and given
-  // back to the system when freed. glibc's default threshold rises to 32 MiB after
-  // the first such free, after which each thread's arena keeps its own high-water
-  // mark of freed matrices: the process then holds more than its live memory (at
-  // state_dim 8, n = 1000: 261 MiB against 220 estimated; with this, 222), and
-  // keeps it after the session is deleted. Cost: fresh pages for each matrix,
-  // 15-20 % of a refit's time at n = 1000-2000 (bench/load/session_memory.py),
-  // until the fit reuses its buffers.
-  mallopt(M_MMAP_THRESHOLD, 1 << 20);
 
   // Block the signals in every thread (gRPC's threads inherit the mask); one
   // thread receives them with sigwait, so no work happens in a signal handler.

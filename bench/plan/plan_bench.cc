@@ -3,23 +3,29 @@
 // and M = 15, the paper's setting (sim/configs/pendulum.textproto: m = l = 1, b = 0.1, dt
 // = 0.1 s, |u| <= 3, measurement noise variance 0.05), and the rec loop from n = 100 to
 // 2000 under a refit schedule. Counters split the time into refit and plan. And one
-// half-cheetah rec plan at n = 500, M = 10 (MuJoCo plant, 18 GPs on z of dimension 24).
+// half-cheetah rec plan at n = 500, M = 10 (MuJoCo plant, 18 GPs on z of dimension 24,
+// sim/configs/half_cheetah.textproto).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <memory>
 #include <random>
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 #include "server/gp/dynamics_model.h"
 #include "server/gp/refit_schedule.h"
 #include "server/plan/planner.h"
 #include "server/plan/prbs_signal.h"
-#include "sim/plants/half_cheetah.h"
+#include "server/service/config_validation.h"
+#include "server/service/session_options.h"
 #include "sim/plants/pendulum.h"
+#include "sim/plants/plant_factory.h"
+#include "sim/sim_config.h"
 
 namespace excite::plan {
 namespace {
@@ -100,30 +106,43 @@ PlanOptions PendulumOptions(Strategy strategy) {
 // BM_RecStep's third argument.
 constexpr Strategy kStepStrategies[] = {Strategy::kRec, Strategy::kMi, Strategy::kRoi};
 
-// Half-cheetah transitions (sim/configs/half_cheetah.textproto: dt 0.05 s, |u| <= 0.5)
-// from the config's rest pose under the server's PRBS (held 5 samples), as
-// `excite-sim --strategy=prbs` collects them; measurement noise variance 0.001.
-Transitions HalfCheetahData(int n, uint64_t seed = 1) {
-  auto plant = sim::HalfCheetah::Create(0.05, 5);
+// The half-cheetah benchmark's configuration, sim/configs/half_cheetah.textproto,
+// with the session's defaults filled as the server fills them (aborts if it cannot
+// be read or is invalid: the benchmark measures nothing without it).
+v1::SimConfig HalfCheetahConfig() {
+  absl::StatusOr<v1::SimConfig> config = sim::LoadSimConfig(EXCITE_HALF_CHEETAH_CONFIG);
+  if (!config.ok() || !service::ValidateSessionConfig(config->mutable_session()).ok()) {
+    std::abort();
+  }
+  return *std::move(config);
+}
+
+// Transitions of the config's plant from its initial state under the server's PRBS
+// within the config's input bounds (held 5 samples), as `excite-sim
+// --strategy=prbs` collects them, with the config's measurement noise.
+Transitions PrbsTransitions(const v1::SimConfig& config, int n, uint64_t seed = 1) {
+  absl::StatusOr<std::unique_ptr<sim::Plant>> plant = sim::MakePlant(config.plant());
   if (!plant.ok()) std::abort();
-  const Eigen::MatrixXd inputs =
-      PrbsSignal(Eigen::VectorXd::Constant(6, -0.5), Eigen::VectorXd::Constant(6, 0.5), 5,
-                 seed, 0, n);
+  const v1::SessionConfig& session = config.session();
+  const int dx = session.state_dim(), du = session.input_dim();
+  Eigen::VectorXd lower(du), upper(du);
+  for (int j = 0; j < du; ++j) {
+    lower(j) = session.input_bounds(j).lower();
+    upper(j) = session.input_bounds(j).upper();
+  }
+  const Eigen::MatrixXd inputs = PrbsSignal(lower, upper, 5, seed, 0, n);
   std::mt19937_64 rng(seed);
-  std::normal_distribution<double> noise(0.0, std::sqrt(0.001));
-  Transitions t{Eigen::MatrixXd(n, 18), Eigen::MatrixXd(n, 6), Eigen::MatrixXd(n, 18)};
-  Eigen::VectorXd x(18);
-  x << -0.016025, -0.038751, 0.020321, -0.000538, 0.025903, -0.033122, -0.037508,
-      -0.093755, -0.071080, 0.000282, -0.000221, 0.000314, 0.000739, 0.000673, 0.000575,
-      -0.000913, -0.000978, -0.001037;
-  Eigen::VectorXd u(6);
+  std::normal_distribution<double> noise(0.0, std::sqrt(session.noise().variance()));
+  Transitions t{Eigen::MatrixXd(n, dx), Eigen::MatrixXd(n, du), Eigen::MatrixXd(n, dx)};
+  Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(
+      config.plant().initial_state().data(), config.plant().initial_state_size());
   const auto noisy = [&](const Eigen::VectorXd& v) {
     Eigen::VectorXd out = v;
     for (Eigen::Index i = 0; i < out.size(); ++i) out(i) += noise(rng);
     return out;
   };
   for (int k = 0; k < n; ++k) {
-    u = inputs.row(k).transpose();
+    const Eigen::VectorXd u = inputs.row(k).transpose();
     const Eigen::VectorXd x1 = (*plant)->Step(x, u);
     t.states.row(k) = noisy(x).transpose();
     t.inputs.row(k) = u.transpose();
@@ -133,38 +152,19 @@ Transitions HalfCheetahData(int n, uint64_t seed = 1) {
   return t;
 }
 
-// The half-cheetah config's region of interest (state_bounds) and input bounds.
-Eigen::VectorXd HalfCheetahStateHalfWidth() {
-  Eigen::VectorXd h(18);
-  h << 1.5, 0.175, 0.6, 0.56, 0.6, 0.5, 0.6, 0.6, 0.5, 2.0, 1.5, 3.0, 10.0, 10.0, 10.0,
-      10.0, 10.0, 10.0;
-  return h;
-}
-
 // One rec PlanInputs of the half-cheetah at n samples, M = 10 (Issue 13's target:
-// <= 1 s). The model's hyperparameters come from one cold fit on all n samples (about
-// 20 s at n = 500 on 2 cores, not timed). Each iteration plans from the next measured
-// state with the previous plan's warm start; the model does not change between plans.
+// <= 1 s), with the model and planner options the server derives from the config.
+// The model's hyperparameters come from one cold fit on all n samples (about 20 s
+// at n = 500 on 2 cores, not timed). Each iteration plans from the next measured
+// state with the previous plan's warm start; the model does not change between
+// plans.
 void BM_HalfCheetahPlan(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  const Transitions data = HalfCheetahData(n + 20);
-  gp::DynamicsModelOptions o;
-  o.state_dim = 18;
-  o.input_dim = 6;
-  o.measurement_noise_variance = 0.001;
-  o.input_center = Eigen::VectorXd::Zero(24);
-  o.input_center(1) = -0.075;
-  o.input_center(3) = 0.04;
-  o.input_center(5) = 0.1;
-  o.input_half_width = Eigen::VectorXd::Constant(24, 0.5);
-  o.input_half_width.head(18) = HalfCheetahStateHalfWidth();
-  const gp::DynamicsModel model = FittedModel(o, data, n);
-  PlanOptions options;
-  options.strategy = Strategy::kRec;
-  options.horizon = 10;
-  options.input_lower = Eigen::VectorXd::Constant(6, -0.5);
-  options.input_upper = Eigen::VectorXd::Constant(6, 0.5);
-  Planner planner(options);
+  const v1::SimConfig config = HalfCheetahConfig();
+  const Transitions data = PrbsTransitions(config, n + 20);
+  const gp::DynamicsModel model =
+      FittedModel(service::ModelOptionsFromConfig(config.session()), data, n);
+  Planner planner(service::PlanOptionsFromConfig(config.session()));
   std::vector<double> plan_ms;
   double iterations = 0.0, objective = 0.0;
   int k = n;

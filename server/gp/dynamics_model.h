@@ -138,7 +138,7 @@ class DynamicsModel final : public DynamicsPredictor {
   // `samples` samples at its peak: what it keeps (per output the Cholesky factor
   // with its growth room, the kernel matrix cached by the last factorisation, the
   // data) plus what a Refit() allocates while it runs on `fit_threads` threads
-  // (four n x n matrices per output being fitted). For memory budgets; compared
+  // (five n x n matrices per output being fitted). For memory budgets; compared
   // with a real server's peak resident memory in bench/load/session_memory.py.
   // With sparse_above > 0 and more samples than that: the sparse models at
   // `max_inducing` points, the data, and the fit of at most sparse_fit_samples.

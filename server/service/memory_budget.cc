@@ -1,5 +1,6 @@
 #include "server/service/memory_budget.h"
 
+#include <malloc.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -61,5 +62,7 @@ std::string FormatBytes(int64_t bytes) {
   if (b >= 1024.0 * 1024 * 10) return absl::StrFormat("%.0f MiB", b / (1 << 20));
   return absl::StrFormat("%.1f MiB", b / (1 << 20));
 }
+
+void ReturnFreedMemory() { malloc_trim(0); }
 
 }  // namespace excite::service

@@ -47,6 +47,15 @@ int64_t DefaultMemoryBudgetBytes();
 // "1.5 MiB", "918 MiB", "3.2 GiB".
 std::string FormatBytes(int64_t bytes);
 
+// Gives the free memory of every malloc arena back to the system (glibc's
+// malloc_trim). Call where large blocks were just freed: after a refit (its n x n
+// matrices) and after a session is dropped. Between calls, freed blocks stay in
+// the arena of the thread that freed them and are reused without new page
+// faults; without calls, each thread's arena would keep its own high-water mark
+// of freed kernel matrices, so the process would hold more than the budget
+// estimates. Costs a walk over the arenas' free blocks. Thread-safe.
+void ReturnFreedMemory();
+
 }  // namespace excite::service
 
 #endif  // EXCITE_SERVER_SERVICE_MEMORY_BUDGET_H_

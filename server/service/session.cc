@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "server/service/field_violation.h"
 #include "server/service/logging.h"
+#include "server/service/memory_budget.h"
 #include "server/service/resource_name.h"
 #include "server/service/session_options.h"
 #include "server/service/store_conversion.h"
@@ -445,10 +446,12 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
   if (!refit_due && config_.kernel().fit() && !config_.refit().never() &&
       !model_->hyperparameters().empty()) {
     // Restored with a fit that is still current: predict as before the restart.
-    if (absl::Status s = model_->Rebuild(); !s.ok()) {
+    const absl::Status rebuilt = model_->Rebuild();
+    ReturnFreedMemory();  // the factorisation's n x n temporaries
+    if (!rebuilt.ok()) {
       return absl::InternalError(absl::StrCat("rebuilding session ", name_, " with ",
                                               sample_count_,
-                                              " samples failed: ", s.message()));
+                                              " samples failed: ", rebuilt.message()));
     }
     PublishSnapshot();
     return absl::OkStatus();
@@ -463,6 +466,7 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
   } catch (const std::exception& e) {
     summary = InternalFromException("refit", e);
   }
+  ReturnFreedMemory();  // the fit's n x n temporaries
   if (!summary.ok()) {
     return absl::InternalError(
         absl::StrCat("refit of session ", name_, " with ", sample_count_,

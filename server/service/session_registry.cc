@@ -10,6 +10,7 @@
 #include "server/service/config_validation.h"
 #include "server/service/field_violation.h"
 #include "server/service/logging.h"
+#include "server/service/memory_budget.h"
 #include "server/service/resource_name.h"
 
 namespace excite::service {
@@ -464,9 +465,13 @@ absl::Status SessionRegistry::Delete(const std::string& id) {
   if (!session.ok()) return session.status();
   // Without the registry lock: a session may be busy planning for a while.
   if (absl::Status s = (*session)->Delete(); !s.ok()) return s;
-  absl::MutexLock lock(&mu_);
-  auto it = sessions_.find(id);
-  if (it != sessions_.end() && it->second.session == *session) sessions_.erase(it);
+  {
+    absl::MutexLock lock(&mu_);
+    auto it = sessions_.find(id);
+    if (it != sessions_.end() && it->second.session == *session) sessions_.erase(it);
+  }
+  session->reset();  // the model goes with the last reference (a busy call may hold one)
+  ReturnFreedMemory();
   return absl::OkStatus();
 }
 

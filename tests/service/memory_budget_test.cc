@@ -5,8 +5,15 @@
 
 #include "server/service/memory_budget.h"
 
+#include <malloc.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "client/excite_client.h"
 #include "gmock/gmock.h"
@@ -178,18 +185,45 @@ TEST(MemoryBudget, ReserveIsAllOrNothing) {
 
 TEST(MemoryBudget, EstimateCountsWhatTheModelHolds) {
   // Per output (2): the factor with its 25 % room, the cached K, the inputs twice
-  // (z_dim 3) and three vectors; the model's inputs and targets; four n x n per
+  // (z_dim 3) and three vectors; the model's inputs and targets; five n x n per
   // fitting thread (2).
   const int64_t n = 2000;
   const int64_t capacity = 2508;
   const int64_t doubles =
-      2 * (capacity * capacity + n * n + 2 * n * 3 + 3 * n) + n * 5 + 2 * 4 * n * n;
+      2 * (capacity * capacity + n * n + 2 * n * 3 + 3 * n) + n * 5 + 2 * 5 * n * n;
   EXPECT_EQ(ModelBytes(n), doubles * 8);
   EXPECT_EQ(gp::DynamicsModel::PeakBytes(0, 2, 1, 2), int64_t{2 * 16 * 16 * 8});
   // One fitting thread per output at most.
   EXPECT_EQ(
       gp::DynamicsModel::PeakBytes(n, 1, 1, 8) - gp::DynamicsModel::PeakBytes(n, 1, 1, 1),
       0);
+}
+
+int64_t ResidentBytes() {
+  std::ifstream statm("/proc/self/statm");
+  int64_t size = 0, resident = 0;
+  statm >> size >> resident;
+  return resident * sysconf(_SC_PAGESIZE);
+}
+
+// Freed blocks that glibc keeps in the heap are given back to the system.
+TEST(ReturnFreedMemory, GivesTheHeapsFreePagesBack) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "the sanitizer's allocator replaces glibc's";
+#else
+  // 64 blocks of 1 MiB on the heap, where neither mapping nor free() trims them.
+  mallopt(M_MMAP_THRESHOLD, 256 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  std::vector<char*> blocks;
+  for (int i = 0; i < 64; ++i) {
+    blocks.push_back(static_cast<char*>(std::malloc(1 << 20)));
+    std::memset(blocks.back(), 1, 1 << 20);
+  }
+  for (char* block : blocks) std::free(block);
+  const int64_t kept = ResidentBytes();
+  ReturnFreedMemory();
+  EXPECT_GT(kept - ResidentBytes(), int64_t{48} << 20);
+#endif
 }
 
 }  // namespace
