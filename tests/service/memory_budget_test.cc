@@ -199,18 +199,17 @@ TEST(MemoryBudget, EstimateCountsWhatTheModelHolds) {
       0);
 }
 
-int64_t ResidentBytes() {
-  std::ifstream statm("/proc/self/statm");
-  int64_t size = 0, resident = 0;
-  statm >> size >> resident;
-  return resident * sysconf(_SC_PAGESIZE);
-}
-
 // Freed blocks that glibc keeps in the heap are given back to the system.
 TEST(ReturnFreedMemory, GivesTheHeapsFreePagesBack) {
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "the sanitizer's allocator replaces glibc's";
 #else
+  const auto resident_bytes = [] {
+    std::ifstream statm("/proc/self/statm");
+    int64_t size = 0, resident = 0;
+    statm >> size >> resident;
+    return resident * sysconf(_SC_PAGESIZE);
+  };
   // 64 blocks of 1 MiB on the heap, where neither mapping nor free() trims them.
   mallopt(M_MMAP_THRESHOLD, 256 << 20);
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
@@ -220,9 +219,9 @@ TEST(ReturnFreedMemory, GivesTheHeapsFreePagesBack) {
     std::memset(blocks.back(), 1, 1 << 20);
   }
   for (char* block : blocks) std::free(block);
-  const int64_t kept = ResidentBytes();
+  const int64_t kept = resident_bytes();
   ReturnFreedMemory();
-  EXPECT_GT(kept - ResidentBytes(), int64_t{48} << 20);
+  EXPECT_GT(kept - resident_bytes(), int64_t{48} << 20);
 #endif
 }
 
