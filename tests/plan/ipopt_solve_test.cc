@@ -3,7 +3,6 @@
 
 #include "server/plan/ipopt_solve.h"
 
-#include <IpUtils.hpp>
 #include <chrono>
 #include <mutex>
 #include <thread>
@@ -140,7 +139,6 @@ TEST(IpoptSolveTest, IpoptTimesItselfWithTheMonotonicClock) {
   const IpoptOutcome outcome = SolveTnlp(nlp, settings);
   EXPECT_TRUE(outcome.options_accepted);
   EXPECT_EQ(outcome.status, Ipopt::Maximum_CpuTime_Exceeded);
-  EXPECT_EQ(Ipopt::SysTime(), 0.0);
 }
 
 TEST(IpoptSolveTest, CountsTheWaitWhileAnotherHoldsTheLock) {
