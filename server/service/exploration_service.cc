@@ -369,18 +369,16 @@ grpc::Status ExplorationService::ExportSession(grpc::ServerContext* /*context*/,
     if (!session.ok()) return session.status();
     absl::StatusOr<StoredSession> stored = (*session)->Export();
     if (!stored.ok()) return stored.status();
-    absl::StatusOr<v1::SessionArchive> archive =
-        ArchiveFromStore(stored->record, stored->samples);
-    if (!archive.ok()) return archive.status();
-    const size_t bytes = archive->ByteSizeLong();
+    v1::SessionArchive archive = ArchiveFromStore(stored->record, stored->samples);
+    const size_t bytes = archive.ByteSizeLong();
     if (bytes > static_cast<size_t>(limits_.max_message_bytes)) {
       return absl::ResourceExhaustedError(absl::StrCat(
-          "the archive of ", request->name(), " (", archive->samples_size(),
+          "the archive of ", request->name(), " (", archive.samples_size(),
           " samples) is ", bytes, " bytes, more than this server's message limit of ",
           limits_.max_message_bytes,
           " bytes: restart excite-server with a larger --max_message_mb to export it"));
     }
-    *response = *std::move(archive);
+    *response = std::move(archive);
     return absl::OkStatus();
   });
 }

@@ -1,5 +1,8 @@
 #include "server/service/field_violation.h"
 
+#include <algorithm>
+#include <cstddef>
+
 #include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -85,8 +88,16 @@ absl::Status Violations::Result() const {
       records.push_back(absl::StrCat(v.field, "\x1f", v.description));
     }
   }
-  absl::Status result = absl::InvalidArgumentError(
-      absl::StrCat(messages.size(), " problems: ", absl::StrJoin(messages, "; ")));
+  std::string listed = absl::StrJoin(
+      messages.begin(),
+      messages.begin() +
+          static_cast<std::ptrdiff_t>(std::min(messages.size(), kMaxListedProblems)),
+      "; ");
+  if (messages.size() > kMaxListedProblems) {
+    absl::StrAppend(&listed, "; ... and ", messages.size() - kMaxListedProblems, " more");
+  }
+  absl::Status result =
+      absl::InvalidArgumentError(absl::StrCat(messages.size(), " problems: ", listed));
   result.SetPayload(kViolationsPayload, absl::Cord(absl::StrJoin(records, "\x1e")));
   return result;
 }

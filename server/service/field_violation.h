@@ -32,10 +32,15 @@ struct FieldViolation {
 // each of a Violations::Result() with several. Empty if none.
 std::vector<FieldViolation> FieldViolations(const absl::Status& status);
 
+// How many problems a message of Violations::Result() spells out; the rest are
+// counted ("... and K more"). ToGrpcStatus caps what reaches the wire again.
+inline constexpr size_t kMaxListedProblems = 10;
+
 // The problems of one request, so that it is refused with all of them at once:
 // Add() each check's result. Result() is OK if none failed, the error itself if
-// one did, else INVALID_ARGUMENT "N problems: <first>; <second>; ..." carrying
-// every field violation (FieldViolations).
+// one did, else INVALID_ARGUMENT "N problems: <first>; <second>; ...; ... and K
+// more" (the first kMaxListedProblems) carrying every field violation
+// (FieldViolations).
 class Violations {
  public:
   void Add(absl::Status status);

@@ -67,6 +67,12 @@ absl::Status ValidateTransitions(
       return FieldViolationError(absl::StrCat(path, ".sequence"),
                                  absl::StrCat("must be >= 0, got ", t.sequence()));
     }
+    if (t.sequence() > kMaxSequence) {
+      return FieldViolationError(
+          absl::StrCat(path, ".sequence"),
+          absl::StrCat("must be at most 2^53 = ", kMaxSequence,
+                       " (what a JSON number holds exactly), got ", t.sequence()));
+    }
     if (!std::isfinite(t.timestamp_s())) {
       return FieldViolationError(absl::StrCat(path, ".timestamp_s"),
                                  absl::StrCat("must be finite, got ", t.timestamp_s()));

@@ -13,8 +13,8 @@ namespace excite::service {
 
 // Checks one AddData message's transitions against a (validated) session config:
 // state/next_state of state_dim and input of input_dim numbers, all finite and
-// within +-kMaxAbsValue (value_ranges.h);
-// sequence >= 0; finite timestamp_s; no sequence number twice in the message.
+// within +-kMaxAbsValue (value_ranges.h); sequence in [0, kMaxSequence];
+// finite timestamp_s; no sequence number twice in the message.
 // INVALID_ARGUMENT naming the field under `field`, e.g.
 // "transitions[3].state[1]: ..." (a SessionArchive's samples: "archive.samples").
 absl::Status ValidateTransitions(

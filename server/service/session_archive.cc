@@ -11,6 +11,7 @@
 #include "server/service/resource_name.h"
 #include "server/service/session_labels.h"
 #include "server/service/store_conversion.h"
+#include "server/service/value_ranges.h"
 
 namespace excite::service {
 
@@ -30,6 +31,13 @@ absl::StatusOr<v1::SessionConfig> ValidateSessionArchive(
           CheckOptionalSessionId(archive.session_id(), absl::StrCat(path, ".session_id"));
       !s.ok()) {
     return s;
+  }
+  if (!archive.has_config() && !archive.unreadable_config().empty()) {
+    return FieldViolationError(
+        absl::StrCat(path, ".config"),
+        "unset: the archive was exported from a session whose stored config does not "
+        "parse (its bytes are in unreadable_config); set config to the session's "
+        "configuration and import again");
   }
   absl::StatusOr<v1::SessionConfig> config =
       ValidatedSessionConfig(archive.config(), absl::StrCat(path, ".config"));
@@ -64,10 +72,12 @@ absl::StatusOr<v1::SessionConfig> ValidateSessionArchive(
                      "] (the number of samples), and 0 without hyperparameters; got ",
                      archive.fitted_sample_count()));
   }
-  if (archive.created_unix_ms() < 0) {
+  if (archive.created_unix_ms() < 0 || archive.created_unix_ms() > kMaxUnixMs) {
     return FieldViolationError(
         absl::StrCat(path, ".created_unix_ms"),
-        absl::StrCat("must be >= 0 (0: unknown), got ", archive.created_unix_ms()));
+        absl::StrCat("must be in [0, ", kMaxUnixMs,
+                     "] (0: unknown; the largest is the end of the year 9999), got ",
+                     archive.created_unix_ms()));
   }
   if (absl::Status s = ValidateDisplayNameAndLabels(
           archive.display_name(), archive.labels(), absl::StrCat(path, "."));
@@ -77,29 +87,29 @@ absl::StatusOr<v1::SessionConfig> ValidateSessionArchive(
   return config;
 }
 
-absl::StatusOr<v1::SessionArchive> ArchiveFromStore(
-    const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples) {
+v1::SessionArchive ArchiveFromStore(const store::SessionRecord& record,
+                                    const std::vector<store::SampleRecord>& samples) {
   v1::SessionArchive archive;
   archive.set_format_version(kSessionArchiveFormatVersion);
   archive.set_session_id(record.id);
   if (!archive.mutable_config()->ParseFromString(record.config)) {
-    return absl::DataLossError(
-        absl::StrCat("session ", record.id, ": the stored config does not parse"));
+    archive.clear_config();
+    archive.set_unreadable_config(record.config);
   }
-  std::optional<SavedFit> saved = DecodeSavedHyperparameters(record.hyperparameters);
-  if (!saved.has_value()) {
-    return absl::DataLossError(
-        absl::StrCat("session ", record.id, ": the stored hyperparameters do not parse"));
+  // The fit is derived from the samples: one that does not parse is left out
+  // (the importing server fits anew), not a reason to keep the samples in.
+  if (std::optional<SavedFit> saved = DecodeSavedHyperparameters(record.hyperparameters);
+      saved.has_value()) {
+    for (v1::Hyperparameters& h : saved->hyperparameters) {
+      *archive.add_hyperparameters() = std::move(h);
+    }
+    archive.set_fitted_sample_count(saved->fitted_samples);
   }
-  for (v1::Hyperparameters& h : saved->hyperparameters) {
-    *archive.add_hyperparameters() = std::move(h);
-  }
-  archive.set_fitted_sample_count(saved->fitted_samples);
   archive.mutable_samples()->Reserve(static_cast<int>(samples.size()));
   for (const store::SampleRecord& sample : samples) {
     *archive.add_samples() = ToTransition(sample);
   }
-  archive.set_created_unix_ms(record.created_unix_ms);
+  archive.set_created_unix_ms(WireUnixMs(record.created_unix_ms));
   archive.set_display_name(record.display_name);
   archive.mutable_labels()->insert(record.labels.begin(), record.labels.end());
   return archive;

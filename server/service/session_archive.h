@@ -23,16 +23,19 @@ inline constexpr int32_t kSessionArchiveFormatVersion = 1;
 // `path`, e.g. "archive.samples[3].state": format_version must be
 // kSessionArchiveFormatVersion; session_id empty or a valid id; config as
 // ValidateSessionConfig; samples as ValidateTransitions (shapes, finite numbers,
-// sequence >= 0 and unique); hyperparameters empty or state_dim entries as
-// ValidateHyperparameters; created_unix_ms >= 0. Caps are the caller's.
+// sequence in [0, kMaxSequence] and unique); hyperparameters empty or state_dim entries
+// as ValidateHyperparameters; created_unix_ms in [0, kMaxUnixMs]; an unset config beside
+// unreadable_config is refused with what to do. Caps are the caller's.
 absl::StatusOr<v1::SessionConfig> ValidateSessionArchive(
     const v1::SessionArchive& archive, absl::string_view path = "archive");
 
 // The archive of a stored session (samples in the order given, hyperparameters
-// from the record's saved bytes). DATA_LOSS if the stored config or
-// hyperparameters do not parse.
-absl::StatusOr<v1::SessionArchive> ArchiveFromStore(
-    const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples);
+// from the record's saved bytes). Never fails on what a store holds: a config
+// that does not parse goes to unreadable_config (config unset), hyperparameters
+// that do not parse are left out, and the creation time is clamped to the
+// wire's range (WireUnixMs).
+v1::SessionArchive ArchiveFromStore(const store::SessionRecord& record,
+                                    const std::vector<store::SampleRecord>& samples);
 
 // What ImportSession stores for a validated archive.
 struct ArchiveRecords {

@@ -3,6 +3,7 @@
 #include "google/protobuf/util/time_util.h"
 #include "server/service/resource_name.h"
 #include "server/service/session_options.h"
+#include "server/service/store_conversion.h"
 
 namespace excite::service {
 namespace {
@@ -61,10 +62,9 @@ v1::Session SessionToProto(const SessionDescription& description) {
   *proto.mutable_config() = description.config;
   proto.set_display_name(description.display_name);
   proto.mutable_labels()->insert(description.labels.begin(), description.labels.end());
-  if (description.created_unix_ms > 0) {
+  if (const int64_t created = WireUnixMs(description.created_unix_ms); created > 0) {
     *proto.mutable_create_time() =
-        google::protobuf::util::TimeUtil::MillisecondsToTimestamp(
-            description.created_unix_ms);
+        google::protobuf::util::TimeUtil::MillisecondsToTimestamp(created);
   }
   const SessionSnapshot& snapshot = description.snapshot;
   proto.set_sample_count(snapshot.sample_count);

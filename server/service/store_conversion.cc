@@ -1,6 +1,9 @@
 #include "server/service/store_conversion.h"
 
+#include <algorithm>
+
 #include "server/service/session_options.h"
+#include "server/service/value_ranges.h"
 
 namespace excite::service {
 
@@ -24,6 +27,10 @@ v1::Transition ToTransition(const store::SampleRecord& sample) {
                                        sample.next_state.end());
   transition.set_timestamp_s(sample.timestamp_s);
   return transition;
+}
+
+int64_t WireUnixMs(int64_t stored_unix_ms) {
+  return std::clamp<int64_t>(stored_unix_ms, 0, kMaxUnixMs);
 }
 
 std::string EncodeSavedHyperparameters(

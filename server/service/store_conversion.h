@@ -19,6 +19,12 @@ namespace excite::service {
 store::SampleRecord ToSampleRecord(const v1::Transition& transition);
 v1::Transition ToTransition(const store::SampleRecord& sample);
 
+// A stored creation time (ms since the Unix epoch) as the wire can carry it:
+// 0 (unknown) for a negative one, kMaxUnixMs for one past it. Imports store
+// none such (ValidateSessionArchive), but rows written by an older server or by
+// hand may hold any int64, and one row must not make ListSessions fail.
+int64_t WireUnixMs(int64_t stored_unix_ms);
+
 // The store's opaque hyperparameter bytes (SessionRecord::hyperparameters) are a
 // serialized Session holding only `outputs` and, as `sample_count`, the number of
 // samples the hyperparameters were fitted on (0 if unknown: saved before it was

@@ -14,6 +14,8 @@
 // to hold every fit the server itself can produce, so an exported session
 // imports again.
 
+#include <cstdint>
+
 namespace excite::service {
 
 // States, inputs, next states, Predict inputs, PlanInputs states and the bounds
@@ -40,6 +42,15 @@ inline constexpr double kMaxFitSignalVariance = 1e12;
 // anything; an hour the most a client should wait for one call.
 inline constexpr double kMinTimeBudgetS = 1e-3;
 inline constexpr double kMaxTimeBudgetS = 3600.0;
+// Transition.sequence: at most 2^53, the largest integer a JSON number (the
+// live view, a JavaScript client) holds exactly, so that a client can always
+// number the next sample last_sequence + 1. At 1 kHz a plant reaches it in
+// 285,000 years.
+inline constexpr int64_t kMaxSequence = int64_t{1} << 53;
+// Times in milliseconds since the Unix epoch (SessionArchive.created_unix_ms):
+// at most the last millisecond of 9999-12-31 UTC, google.protobuf.Timestamp's
+// largest, so that every stored time converts back to the wire.
+inline constexpr int64_t kMaxUnixMs = 253402300799999;
 
 }  // namespace excite::service
 

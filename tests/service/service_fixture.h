@@ -20,7 +20,9 @@
 #include "grpcpp/security/credentials.h"
 #include "gtest/gtest.h"
 #include "server/service/config_text.h"
+#include "server/service/config_validation.h"
 #include "server/service/excite_server.h"
+#include "tests/service/pendulum_data.h"
 #include "tests/support/temp_dir.h"
 
 namespace excite::testing {
@@ -72,6 +74,22 @@ inline v1::SessionConfig PendulumFixedKernelConfig(const v1::Hyperparameters& fi
   return config;
 }
 
+// A valid archive of `id` built by hand: the pendulum config as validation
+// stores it and 10 pendulum samples (no hyperparameters, creation time unknown).
+inline v1::SessionArchive PendulumArchive(const std::string& id) {
+  v1::SessionArchive archive;
+  archive.set_format_version(1);
+  archive.set_session_id(id);
+  absl::StatusOr<v1::SessionConfig> config =
+      service::ValidatedSessionConfig(PendulumConfig(), "config");
+  EXPECT_TRUE(config.ok()) << config.status();
+  *archive.mutable_config() = *config;
+  for (const v1::Transition& t : PendulumTransitions(10, 0, 5)) {
+    *archive.add_samples() = t;
+  }
+  return archive;
+}
+
 // A server started in SetUp with options_ (tests may change options_ and call
 // StopServer() / StartServer() to restart on the same data directory).
 class ServiceTest : public ::testing::Test {
@@ -114,6 +132,28 @@ class ServiceTest : public ::testing::Test {
     absl::StatusOr<v1::AddDataResponse> response = client_->AddData(name, batches);
     EXPECT_TRUE(response.ok()) << response.status();
     return response.ok() ? *response : v1::AddDataResponse();
+  }
+
+  // ListSessions (every page), and GetSession and ExportSession of each listed
+  // session, all succeed; returns the number listed.
+  int ExpectEveryReadSucceeds() {
+    int listed = 0;
+    std::string token;
+    do {
+      absl::StatusOr<v1::ListSessionsResponse> page = client_->ListSessions(0, token);
+      EXPECT_TRUE(page.ok()) << page.status();
+      if (!page.ok()) return -1;
+      for (const v1::Session& session : page->sessions()) {
+        ++listed;
+        absl::StatusOr<v1::Session> got = client_->GetSession(session.name());
+        EXPECT_TRUE(got.ok()) << session.name() << ": " << got.status();
+        absl::StatusOr<v1::SessionArchive> exported =
+            client_->ExportSession(session.name());
+        EXPECT_TRUE(exported.ok()) << session.name() << ": " << exported.status();
+      }
+      token = page->next_page_token();
+    } while (!token.empty());
+    return listed;
   }
 
   // A raw AddData stream of `messages`.

@@ -34,16 +34,7 @@ v1::SessionConfig FixedKernelConfig() {
 // A valid archive built by hand: 10 pendulum samples, hyperparameters for both
 // outputs.
 v1::SessionArchive ValidArchive(const std::string& id) {
-  v1::SessionArchive archive;
-  archive.set_format_version(1);
-  archive.set_session_id(id);
-  absl::StatusOr<v1::SessionConfig> config =
-      service::ValidatedSessionConfig(PendulumConfig(), "config");
-  EXPECT_TRUE(config.ok()) << config.status();
-  *archive.mutable_config() = *config;
-  for (const v1::Transition& t : PendulumTransitions(10, 0, 5)) {
-    *archive.add_samples() = t;
-  }
+  v1::SessionArchive archive = PendulumArchive(id);
   *archive.add_hyperparameters() = PendulumHyperparameters(0.5);
   *archive.add_hyperparameters() = PendulumHyperparameters(40.0);
   archive.set_created_unix_ms(1700000000000);
