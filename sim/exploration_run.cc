@@ -11,6 +11,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "server/service/strategy_names.h"
 #include "sim/evaluation.h"
 #include "sim/portable_random.h"
 #include "sim/sim_config.h"
@@ -162,8 +163,9 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   if (!coverage.ok()) return Annotate(coverage.status(), "coverage");
 
   summary_.system = config_.system();
-  summary_.strategy =
-      options_.uniform_design ? "uniform" : StrategyName(config_.session().strategy());
+  summary_.strategy = options_.uniform_design
+                          ? "uniform"
+                          : service::StrategyShortName(config_.session().strategy());
   summary_.session = session_name_;
   summary_.samples = samples_;
   summary_.final_rmse =

@@ -1,42 +1,16 @@
 #include "sim/sim_config.h"
 
 #include <cmath>
-#include <fstream>
 #include <memory>
-#include <sstream>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "google/protobuf/io/tokenizer.h"
-#include "google/protobuf/text_format.h"
+#include "server/service/config_text.h"
 #include "server/service/config_validation.h"
 #include "sim/plants/plant_factory.h"
 
 namespace excite::sim {
 namespace {
-
-// Every strategy the server knows, by its command-line name.
-constexpr std::pair<const char*, v1::Strategy> kStrategyNames[] = {
-    {"rec", v1::STRATEGY_REC},       {"pa", v1::STRATEGY_PA},
-    {"greedy", v1::STRATEGY_GREEDY}, {"prbs", v1::STRATEGY_PRBS},
-    {"chirp", v1::STRATEGY_CHIRP},   {"random", v1::STRATEGY_RANDOM},
-    {"sep", v1::STRATEGY_SEP},       {"mi", v1::STRATEGY_MI},
-    {"roi", v1::STRATEGY_ROI},       {"optimistic", v1::STRATEGY_OPTIMISTIC},
-};
-
-// Collects text-format parse errors into one message.
-class ErrorCollector : public google::protobuf::io::ErrorCollector {
- public:
-  void AddError(int line, google::protobuf::io::ColumnNumber column,
-                const std::string& message) override {
-    absl::StrAppend(&errors_, errors_.empty() ? "" : "; ", line + 1, ":", column + 1,
-                    ": ", message);
-  }
-  const std::string& errors() const { return errors_; }
-
- private:
-  std::string errors_;
-};
 
 absl::Status CheckIntervals(
     const google::protobuf::RepeatedPtrField<v1::Interval>& bounds, int dim,
@@ -68,22 +42,19 @@ absl::Status CheckAtLeastOne(int64_t value, const char* field) {
 
 absl::StatusOr<v1::SimConfig> ParseSimConfig(absl::string_view text) {
   v1::SimConfig config;
-  ErrorCollector errors;
-  google::protobuf::TextFormat::Parser parser;
-  parser.RecordErrorsTo(&errors);
-  if (!parser.ParseFromString(std::string(text), &config)) {
+  if (absl::Status s = service::ParseTextProto(text, &config); !s.ok()) {
     return absl::InvalidArgumentError(
-        absl::StrCat("SimConfig parse error: ", errors.errors()));
+        absl::StrCat("SimConfig parse error: ", s.message()));
   }
   return config;
 }
 
 absl::StatusOr<v1::SimConfig> LoadSimConfig(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) return absl::NotFoundError(absl::StrCat("cannot read config file ", path));
-  std::stringstream text;
-  text << file.rdbuf();
-  absl::StatusOr<v1::SimConfig> config = ParseSimConfig(text.str());
+  absl::StatusOr<std::string> text = service::ReadTextFile(path);
+  if (!text.ok()) {
+    return absl::NotFoundError(absl::StrCat("cannot read config file ", path));
+  }
+  absl::StatusOr<v1::SimConfig> config = ParseSimConfig(*text);
   if (!config.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat(path, ": ", config.status().message()));
@@ -140,22 +111,6 @@ void ApplyOverrides(const SimOverrides& overrides, v1::SimConfig* config) {
   }
   if (overrides.samples.has_value()) config->set_samples(*overrides.samples);
   if (overrides.seed.has_value()) config->mutable_session()->set_seed(*overrides.seed);
-}
-
-absl::StatusOr<v1::Strategy> ParseStrategy(absl::string_view name) {
-  for (const auto& [known, strategy] : kStrategyNames) {
-    if (name == known) return strategy;
-  }
-  return absl::InvalidArgumentError(absl::StrCat(
-      "unknown strategy \"", name,
-      "\" (expected rec, pa, greedy, prbs, chirp, random, sep, mi, roi or optimistic)"));
-}
-
-std::string StrategyName(v1::Strategy strategy) {
-  for (const auto& [known, value] : kStrategyNames) {
-    if (strategy == value) return known;
-  }
-  return "rec";
 }
 
 }  // namespace excite::sim

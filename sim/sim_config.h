@@ -38,13 +38,6 @@ struct SimOverrides {
 };
 void ApplyOverrides(const SimOverrides& overrides, v1::SimConfig* config);
 
-// "rec", "pa", "greedy", "prbs", "chirp", "random", "sep", "mi", "roi" <-> Strategy.
-// ParseStrategy: INVALID_ARGUMENT otherwise.
-absl::StatusOr<v1::Strategy> ParseStrategy(absl::string_view name);
-// Name of a strategy; STRATEGY_UNSPECIFIED (and any unknown value) is "rec" (the
-// server treats UNSPECIFIED so).
-std::string StrategyName(v1::Strategy strategy);
-
 }  // namespace excite::sim
 
 #endif  // EXCITE_SIM_SIM_CONFIG_H_

@@ -18,6 +18,7 @@
 #include "client/excite_client.h"
 #include "common/usage.h"
 #include "server/service/config_text.h"
+#include "server/service/strategy_names.h"
 #include "sim/exploration_run.h"
 #include "sim/plants/plant_factory.h"
 #include "sim/run_summary.h"
@@ -80,7 +81,7 @@ int Main() {
   const bool uniform_design = absl::GetFlag(FLAGS_strategy) == "uniform";
   if (const std::string name = absl::GetFlag(FLAGS_strategy);
       !name.empty() && !uniform_design) {
-    absl::StatusOr<v1::Strategy> strategy = ParseStrategy(name);
+    absl::StatusOr<v1::Strategy> strategy = service::ParseStrategyName(name);
     if (!strategy.ok()) return Fail(strategy.status());
     overrides.strategy = *strategy;
   }
@@ -119,9 +120,9 @@ int Main() {
 
   std::cout << absl::StrFormat("excite-sim: %s, strategy %s, %d samples, server %s\n",
                                config->system(),
-                               uniform_design
-                                   ? "uniform"
-                                   : StrategyName(config->session().strategy()),
+                               uniform_design ? "uniform"
+                                              : service::StrategyShortName(
+                                                    config->session().strategy()),
                                config->samples(), server)
             << std::flush;
   ExplorationOptions options;

@@ -8,32 +8,9 @@
 #include <optional>
 
 #include "server/plan/safe_box.h"
+#include "server/plan/strategy.h"
 
 namespace excite::plan {
-
-// The exploration strategies (paper, Sections 4-6). rec, pa, greedy and sep use
-// the model; prbs, chirp and random are open-loop signals that need neither a model
-// nor data.
-enum class Strategy {
-  kRec,     // plan M, apply the first input, replan
-  kPa,      // plan M, apply all M, replan
-  kGreedy,  // rec with M = 1
-  kPrbs,    // pseudo-random binary sequence between the input bounds
-  kChirp,   // linear swept-frequency sine between the input bounds
-  kRandom,  // uniform random inputs held for a number of samples
-  kSep,     // separated search (argmax H over X x U) and control (steer, apply u*)
-  kMi,      // rec with the horizon's joint mutual information instead of summed entropy
-  kRoi,     // rec maximising the variance removed over a reference set of the region
-  // rec on optimistic (hallucinated) dynamics maximising the summed
-  // log(1 + var / noise) (OPAX)
-  kOptimistic,
-};
-
-// True for the strategies that never evaluate the model (prbs, chirp, random).
-inline bool IsModelFree(Strategy strategy) {
-  return strategy == Strategy::kPrbs || strategy == Strategy::kChirp ||
-         strategy == Strategy::kRandom;
-}
 
 // Parameters of the open-loop signals. Time is in samples (the server does not
 // know the plant's sampling time), frequencies in cycles per sample.
@@ -57,7 +34,7 @@ struct SepOptions {
 // Options of one session's planner. Defaults documented here are the API's.
 struct PlanOptions {
   Strategy strategy = Strategy::kRec;
-  int horizon = 15;  // M; forced to 1 for kGreedy
+  int horizon = 15;  // M; a strategy's fixed_horizon (greedy: 1) overrides it
   Eigen::VectorXd input_lower;
   Eigen::VectorXd input_upper;
   // Region of interest of the state (empty or state_dim entries each); required

@@ -11,13 +11,6 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "server/gp/flush_denormals.h"
-#include "server/plan/chirp_signal.h"
-#include "server/plan/entropy_objective.h"
-#include "server/plan/information_objectives.h"
-#include "server/plan/optimistic_objective.h"
-#include "server/plan/prbs_signal.h"
-#include "server/plan/random_signal.h"
-#include "server/plan/reference_set.h"
 #include "server/plan/sep_planner.h"
 #include "server/plan/shooting_solver.h"
 
@@ -26,39 +19,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Ipopt's obj_scaling_factor for -sum H. Entropy gradients are small (~0.1 per
-// variable at typical starts), so with a limited-memory Hessian (initialised to
-// the identity) Ipopt creeps along in tiny steps. Measured on the pendulum GP at
-// n = 300, M = 15 (bench/plan, 12 rec steps, 2 starts): scaling 1 -> 84
-// iterations per call, mean entropy -50.36; 10 -> 26, -50.36; 30 -> 18, -50.23;
-// 100 -> 16, -50.23. The tolerance then applies to the scaled dual infeasibility,
-// i.e. it is tighter, not looser.
-constexpr double kObjectiveScaling = 100.0;
-// The same for mi (about 1-2 nats per horizon) and roi (a fraction, about 0.1-0.2
-// per horizon): smaller values with smaller gradients. Measured on the same
-// pendulum step (bench/plan BM_RecStep, 10 steps, another job running beside):
-// mi 10 -> 105 iterations per call, 100 -> 33, 1000 -> 17, 10^4 -> 16 (objective
-// 1.370, 1.373, 1.376, 1.382); roi 10 -> 113, 100 -> 75, 1000 -> 43, 10^4 -> 38
-// (objective 0.1596, 0.1604, 0.1604, 0.1604).
-constexpr double kInformationObjectiveScaling = 1e4;
-
 // Uniform in [0, 1) from 53 random bits: the same on every platform.
 double Uniform01(std::mt19937_64& rng) {
   return static_cast<double>(rng() >> 11) * 0x1.0p-53;
-}
-
-absl::Status ValidateStateBounds(const PlanOptions& options, int state_dim,
-                                 const char* strategy) {
-  const Eigen::VectorXd& lower = options.state_lower;
-  const Eigen::VectorXd& upper = options.state_upper;
-  if (lower.size() != state_dim || upper.size() != state_dim || !lower.allFinite() ||
-      !upper.allFinite() || !(lower.array() < upper.array()).all()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(strategy, " needs state bounds: state_dim (", state_dim,
-                     ") finite intervals with lower < upper, got ", lower.size(), " and ",
-                     upper.size(), " entries"));
-  }
-  return absl::OkStatus();
 }
 
 absl::Status ValidateSignal(const SignalOptions& signal, Strategy strategy) {
@@ -112,7 +75,8 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
   if (!lower.allFinite() || !upper.allFinite() || (lower.array() > upper.array()).any()) {
     return absl::InvalidArgumentError("input bounds must be finite with lower <= upper");
   }
-  if (options_.strategy != Strategy::kGreedy && options_.horizon < 1) {
+  const StrategyInfo& strategy = InfoOf(options_.strategy);
+  if (strategy.fixed_horizon == 0 && options_.horizon < 1) {
     return absl::InvalidArgumentError("horizon must be >= 1");
   }
   if (options_.max_iterations < 0 || options_.restarts < 0 ||
@@ -133,6 +97,18 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
   if (absl::Status s = ValidateSignal(options_.signal, options_.strategy); !s.ok()) {
     return s;
   }
+  if (strategy.needs_state_bounds) {
+    const Eigen::VectorXd& state_lower = options_.state_lower;
+    const Eigen::VectorXd& state_upper = options_.state_upper;
+    if (state_lower.size() != dx || state_upper.size() != dx ||
+        !state_lower.allFinite() || !state_upper.allFinite() ||
+        !(state_lower.array() < state_upper.array()).all()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(strategy.name, " needs state bounds: state_dim (", dx,
+                       ") finite intervals with lower < upper, got ", state_lower.size(),
+                       " and ", state_upper.size(), " entries"));
+    }
+  }
   const auto cancelled = [&limits] { return limits.cancelled && limits.cancelled(); };
   const auto past_deadline = [&limits] {
     return limits.deadline.has_value() && Clock::now() >= *limits.deadline;
@@ -147,17 +123,17 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
 
   PlanSummary local;
   absl::StatusOr<Plan> plan;
-  if (IsModelFree(options_.strategy)) {
-    plan = PlanSignal(dx, time_index);
+  if (strategy.method == PlanMethod::kSignal) {
+    plan = PlanSignal(strategy, dx, time_index);
     local.status = PlanStatus::kConverged;
-  } else if (options_.strategy == Strategy::kSep) {
+  } else if (strategy.method == PlanMethod::kSeparated) {
     std::seed_seq seq{static_cast<uint32_t>(options_.seed),
                       static_cast<uint32_t>(options_.seed >> 32),
                       static_cast<uint32_t>(call), static_cast<uint32_t>(call >> 32)};
     std::mt19937_64 rng(seq);
     plan = PlanSeparated(model, x0, options_, rng(), stop, &local);
   } else {
-    plan = PlanTrajectory(model, x0, call, stop, &local);
+    plan = PlanTrajectory(strategy, model, x0, call, stop, &local);
   }
   if (!plan.ok()) return plan.status();
   local.wall_time_ms =
@@ -166,86 +142,30 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
   return plan;
 }
 
-Plan Planner::PlanSignal(int state_dim, int64_t time_index) const {
-  const SignalOptions& signal = options_.signal;
-  const int horizon = options_.horizon;
+Plan Planner::PlanSignal(const StrategyInfo& strategy, int state_dim,
+                         int64_t time_index) const {
   Plan plan;
-  switch (options_.strategy) {
-    case Strategy::kPrbs:
-      plan.inputs = PrbsSignal(options_.input_lower, options_.input_upper,
-                               signal.prbs_min_hold, options_.seed, time_index, horizon);
-      break;
-    case Strategy::kChirp: {
-      ChirpParams params;
-      params.start_frequency = signal.chirp_start_frequency;
-      params.end_frequency = signal.chirp_end_frequency;
-      params.period = signal.chirp_period;
-      plan.inputs = ChirpSignal(options_.input_lower, options_.input_upper, params,
-                                time_index, horizon);
-      break;
-    }
-    default:
-      plan.inputs = RandomSignal(options_.input_lower, options_.input_upper,
-                                 signal.random_hold, options_.seed, time_index, horizon);
-      break;
-  }
+  plan.inputs = strategy.make_signal(options_, time_index);
   plan.states.resize(0, state_dim);
   plan.variances.resize(0, state_dim);
   plan.apply_count = static_cast<int>(plan.inputs.rows());
   return plan;
 }
 
-absl::StatusOr<std::unique_ptr<ShootingObjective>> Planner::MakeObjective(
-    const gp::DynamicsPredictor& model) {
-  switch (options_.strategy) {
-    case Strategy::kMi: {
-      auto objective = NegativeMutualInformationObjective::Create(model);
-      if (!objective.ok()) return objective.status();
-      return std::unique_ptr<ShootingObjective>(*std::move(objective));
-    }
-    case Strategy::kRoi: {
-      const int dx = model.state_dim();
-      if (absl::Status s = ValidateStateBounds(options_, dx, "roi"); !s.ok()) return s;
-      if (options_.roi_reference_points < 1) {
-        return absl::InvalidArgumentError("roi_reference_points must be >= 1");
-      }
-      if (reference_.rows() != options_.roi_reference_points) {
-        Eigen::VectorXd lower(model.z_dim()), upper(model.z_dim());
-        lower << options_.state_lower, options_.input_lower;
-        upper << options_.state_upper, options_.input_upper;
-        reference_ = HaltonReferenceSet(lower, upper, options_.roi_reference_points,
-                                        options_.seed);
-      }
-      auto objective = NegativeVarianceReductionObjective::Create(model, reference_);
-      if (!objective.ok()) return objective.status();
-      return std::unique_ptr<ShootingObjective>(*std::move(objective));
-    }
-    case Strategy::kOptimistic: {
-      if (!(options_.optimism_beta > 0.0) || !std::isfinite(options_.optimism_beta)) {
-        return absl::InvalidArgumentError("optimism_beta must be finite and > 0");
-      }
-      auto objective =
-          NegativeLogVarianceRatioObjective::Create(model.ObservationNoiseVariances());
-      if (!objective.ok()) return objective.status();
-      return std::unique_ptr<ShootingObjective>(
-          new NegativeLogVarianceRatioObjective(*std::move(objective)));
-    }
-    default:
-      return std::unique_ptr<ShootingObjective>(new NegativeEntropyObjective());
-  }
-}
-
-absl::StatusOr<Plan> Planner::PlanTrajectory(const gp::DynamicsPredictor& model,
+absl::StatusOr<Plan> Planner::PlanTrajectory(const StrategyInfo& strategy,
+                                             const gp::DynamicsPredictor& model,
                                              const Eigen::VectorXd& x0, uint64_t call,
                                              const std::function<bool()>& stop,
                                              PlanSummary* summary) {
-  absl::StatusOr<std::unique_ptr<ShootingObjective>> objective = MakeObjective(model);
+  absl::StatusOr<std::unique_ptr<ShootingObjective>> objective =
+      strategy.make_objective(model, options_, &reference_);
   if (!objective.ok()) return objective.status();
   const int du = model.input_dim();
   const Eigen::VectorXd& lower = options_.input_lower;
   const Eigen::VectorXd& upper = options_.input_upper;
-  const int horizon = options_.strategy == Strategy::kGreedy ? 1 : options_.horizon;
-  const int apply_count = options_.strategy == Strategy::kPa ? horizon : 1;
+  const int horizon =
+      strategy.fixed_horizon > 0 ? strategy.fixed_horizon : options_.horizon;
+  const int apply_count = strategy.apply_all ? horizon : 1;
 
   // Starts: warm start (previous plan shifted by its apply_count, padded with
   // its last input), a mid-bound start on the first call, then random ones.
@@ -282,12 +202,9 @@ absl::StatusOr<Plan> Planner::PlanTrajectory(const gp::DynamicsPredictor& model,
   // Ten times Ipopt's tol: a 10x longer solve (10x the iterations, a 10x tighter
   // tol) also waits 10x longer for a 10x smaller improvement.
   settings.stall_tolerance = 10.0 * options_.tolerance;
-  settings.objective_scaling =
-      options_.strategy == Strategy::kMi || options_.strategy == Strategy::kRoi
-          ? kInformationObjectiveScaling
-          : kObjectiveScaling;
+  settings.objective_scaling = strategy.objective_scaling;
   settings.safe_box = options_.safe_box;
-  if (options_.strategy == Strategy::kOptimistic) {
+  if (strategy.optimistic_dynamics) {
     settings.optimism_beta = options_.optimism_beta;
   }
   ShootingResult result = SolveFromStarts(model, **objective, x0, lower, upper,

@@ -61,18 +61,15 @@ class Planner {
   const PlanOptions& options() const { return options_; }
 
  private:
-  // rec, pa, greedy, mi and roi: one multiple-shooting NLP, the strategy's
+  // The kTrajectory strategies: one multiple-shooting NLP, the strategy's
   // objective.
-  absl::StatusOr<Plan> PlanTrajectory(const gp::DynamicsPredictor& model,
+  absl::StatusOr<Plan> PlanTrajectory(const StrategyInfo& strategy,
+                                      const gp::DynamicsPredictor& model,
                                       const Eigen::VectorXd& x0, uint64_t call,
                                       const std::function<bool()>& stop,
                                       PlanSummary* summary);
-  // The objective of the strategy on this model (it reads the model: built per
-  // call).
-  absl::StatusOr<std::unique_ptr<ShootingObjective>> MakeObjective(
-      const gp::DynamicsPredictor& model);
-  // prbs, chirp and random.
-  Plan PlanSignal(int state_dim, int64_t time_index) const;
+  // The kSignal strategies.
+  Plan PlanSignal(const StrategyInfo& strategy, int state_dim, int64_t time_index) const;
 
   PlanOptions options_;
   std::optional<Plan> previous_;

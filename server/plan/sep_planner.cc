@@ -30,13 +30,6 @@ absl::StatusOr<Plan> PlanSeparated(const gp::DynamicsPredictor& model,
   const int du = model.input_dim();
   const Eigen::VectorXd& state_lower = options.state_lower;
   const Eigen::VectorXd& state_upper = options.state_upper;
-  if (state_lower.size() != dx || state_upper.size() != dx || !state_lower.allFinite() ||
-      !state_upper.allFinite() || !(state_lower.array() < state_upper.array()).all()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("sep needs state bounds: state_dim (", dx,
-                     ") finite intervals with lower < upper, got ", state_lower.size(),
-                     " and ", state_upper.size(), " entries"));
-  }
   const Eigen::VectorXd& input_lower = options.input_lower;
   const Eigen::VectorXd& input_upper = options.input_upper;
 

@@ -29,10 +29,10 @@ namespace excite::plan {
 //     through the mean (x_0 .. x_{i*}).
 // The summary's objective is the summed entropy of the returned plan, iterations
 // add the L-BFGS-B and Ipopt iterations, starts counts the Ipopt starts,
-// search_point/search_entropy give z* and H(z*). INVALID_ARGUMENT if
-// options.state_lower/upper do not have state_dim finite entries with lower <
-// upper. `stop` is polled throughout; once it fires, the best so far is used
-// (status kTimeLimit).
+// search_point/search_entropy give z* and H(z*). options.state_lower/upper
+// must have state_dim finite entries with lower < upper (the Planner checks it
+// for every strategy whose row needs state bounds). `stop` is polled throughout; once it
+// fires, the best so far is used (status kTimeLimit).
 absl::StatusOr<Plan> PlanSeparated(const gp::DynamicsPredictor& model,
                                    const Eigen::VectorXd& x0, const PlanOptions& options,
                                    uint64_t seed, const std::function<bool()>& stop,

@@ -66,47 +66,58 @@ class CollectErrors : public google::protobuf::io::ErrorCollector {
 
 }  // namespace
 
-absl::StatusOr<v1::SessionConfig> ParseSessionConfigText(absl::string_view text) {
-  v1::SessionConfig config;
-  CollectErrors errors(v1::SessionConfig::descriptor());
+absl::Status ParseTextProto(absl::string_view text, google::protobuf::Message* message) {
+  CollectErrors errors(message->GetDescriptor());
   google::protobuf::TextFormat::Parser parser;
   parser.RecordErrorsTo(&errors);
-  if (!parser.ParseFromString(std::string(text), &config)) {
+  if (!parser.ParseFromString(std::string(text), message)) {
+    return absl::InvalidArgumentError(errors.Joined());
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::string> ReadTextFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return absl::NotFoundError(absl::StrCat("cannot read ", path));
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+absl::StatusOr<v1::SessionConfig> ParseSessionConfigText(absl::string_view text) {
+  v1::SessionConfig config;
+  if (absl::Status s = ParseTextProto(text, &config); !s.ok()) {
     return absl::InvalidArgumentError(
-        absl::StrCat("SessionConfig text format: ", errors.Joined()));
+        absl::StrCat("SessionConfig text format: ", s.message()));
   }
   return config;
 }
 
 absl::StatusOr<v1::SessionConfig> LoadSessionConfigFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return absl::NotFoundError(absl::StrCat("cannot read ", path));
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(buffer.str());
+  absl::StatusOr<std::string> text = ReadTextFile(path);
+  if (!text.ok()) return text.status();
+  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(*text);
   if (config.ok()) return config;
   // The plants' files (sim/configs) hold their session's config as `session`.
   v1::SimConfig sim;
-  CollectErrors sim_errors(v1::SimConfig::descriptor());
-  google::protobuf::TextFormat::Parser parser;
-  parser.RecordErrorsTo(&sim_errors);
-  if (parser.ParseFromString(buffer.str(), &sim)) return sim.session();
+  const absl::Status sim_parsed = ParseTextProto(*text, &sim);
+  if (sim_parsed.ok()) return sim.session();
   // Say only the reading that got past the first field name.
   const bool session_fields =
       !absl::StrContains(config.status().message(), "SessionConfig\" has no field named");
   const bool sim_fields =
-      !absl::StrContains(sim_errors.Joined(), "SimConfig\" has no field named");
+      !absl::StrContains(sim_parsed.message(), "SimConfig\" has no field named");
   if (session_fields && !sim_fields) {
     return absl::Status(config.status().code(),
                         absl::StrCat(path, ": ", config.status().message()));
   }
   if (sim_fields && !session_fields) {
     return absl::InvalidArgumentError(
-        absl::StrCat(path, ": SimConfig text format: ", sim_errors.Joined()));
+        absl::StrCat(path, ": SimConfig text format: ", sim_parsed.message()));
   }
   return absl::InvalidArgumentError(absl::StrCat(
       path, ": neither a SessionConfig nor a SimConfig: ", config.status().message(),
-      "; SimConfig text format: ", sim_errors.Joined()));
+      "; SimConfig text format: ", sim_parsed.message()));
 }
 
 }  // namespace excite::service

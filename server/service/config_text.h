@@ -6,8 +6,17 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "excite/v1/session_config.pb.h"
+#include "google/protobuf/message.h"
 
 namespace excite::service {
+
+// Parses protobuf text format into `message`: INVALID_ARGUMENT with every error
+// as "line:column: message" (an unknown enum value also lists the valid ones).
+// The one text-format parser of the project (config files, excite-sim, the CLI).
+absl::Status ParseTextProto(absl::string_view text, google::protobuf::Message* message);
+
+// The whole file at `path`; NOT_FOUND "cannot read PATH" if it cannot be read.
+absl::StatusOr<std::string> ReadTextFile(const std::string& path);
 
 // Parses a SessionConfig in protobuf text format. INVALID_ARGUMENT with
 // protobuf's "line:column: message" if it does not parse. Does not validate: call

@@ -12,6 +12,7 @@
 #include "server/gp/sparse_gp_model.h"
 #include "server/plan/planner.h"
 #include "server/service/field_violation.h"
+#include "server/service/strategy_names.h"
 #include "server/service/value_ranges.h"
 
 namespace excite::service {
@@ -220,11 +221,13 @@ absl::Status FrequencyWithDefault(absl::string_view field, double* value, double
 // SignalConfig: every set field is checked whatever the strategy; the defaults are
 // filled in only for the fields the session's strategy uses.
 absl::Status ValidateSignal(absl::string_view path, v1::SessionConfig* config) {
-  const v1::Strategy strategy = config->strategy();
-  const bool prbs = strategy == v1::STRATEGY_PRBS;
-  const bool chirp = strategy == v1::STRATEGY_CHIRP;
-  const bool random = strategy == v1::STRATEGY_RANDOM;
-  if (!config->has_signal() && !prbs && !chirp && !random) return absl::OkStatus();
+  const plan::StrategyInfo& strategy = EngineStrategy(config->strategy());
+  const bool prbs = strategy.strategy == plan::Strategy::kPrbs;
+  const bool chirp = strategy.strategy == plan::Strategy::kChirp;
+  const bool random = strategy.strategy == plan::Strategy::kRandom;
+  if (!config->has_signal() && strategy.config_block != "signal") {
+    return absl::OkStatus();
+  }
   const std::string spath = Field(path, "signal");
   const plan::SignalOptions defaults;
   v1::SignalConfig filled = config->signal();
@@ -274,17 +277,26 @@ absl::Status ValidateSignal(absl::string_view path, v1::SessionConfig* config) {
   return absl::OkStatus();
 }
 
-// SepConfig, and sep's need for state_bounds. Set fields are checked whatever the
-// strategy; defaults are filled in for STRATEGY_SEP only.
-absl::Status ValidateSep(absl::string_view path, v1::SessionConfig* config) {
-  const bool sep = config->strategy() == v1::STRATEGY_SEP;
-  if (sep && config->state_bounds_size() != config->state_dim()) {
+// The state_bounds a strategy needs (StrategyInfo::needs_state_bounds: sep's
+// search box, roi's reference set).
+absl::Status ValidateStrategyNeeds(absl::string_view path,
+                                   const v1::SessionConfig& config) {
+  if (EngineStrategy(config.strategy()).needs_state_bounds &&
+      config.state_bounds_size() != config.state_dim()) {
     return Invalid(Field(path, "state_bounds"),
-                   absl::StrCat("STRATEGY_SEP needs state_dim (", config->state_dim(),
-                                ") intervals (its search box is state_bounds x "
+                   absl::StrCat(v1::Strategy_Name(config.strategy()),
+                                " needs state_dim (", config.state_dim(),
+                                ") intervals (its region is state_bounds x "
                                 "input_bounds), got ",
-                                config->state_bounds_size()));
+                                config.state_bounds_size()));
   }
+  return absl::OkStatus();
+}
+
+// SepConfig. Set fields are checked whatever the strategy; defaults are filled in
+// for the strategy that reads the block only.
+absl::Status ValidateSep(absl::string_view path, v1::SessionConfig* config) {
+  const bool sep = EngineStrategy(config->strategy()).config_block == "sep";
   if (!config->has_sep() && !sep) return absl::OkStatus();
   const std::string spath = Field(path, "sep");
   const plan::SepOptions defaults;
@@ -314,16 +326,10 @@ absl::Status ValidateSep(absl::string_view path, v1::SessionConfig* config) {
   return absl::OkStatus();
 }
 
-// RoiConfig, and roi's need for state_bounds (the box of its reference set).
+// RoiConfig (set fields checked whatever the strategy, defaults filled in for
+// the strategy that reads the block).
 absl::Status ValidateRoi(absl::string_view path, v1::SessionConfig* config) {
-  const bool roi = config->strategy() == v1::STRATEGY_ROI;
-  if (roi && config->state_bounds_size() != config->state_dim()) {
-    return Invalid(Field(path, "state_bounds"),
-                   absl::StrCat("STRATEGY_ROI needs state_dim (", config->state_dim(),
-                                ") intervals (its reference set spans state_bounds x "
-                                "input_bounds), got ",
-                                config->state_bounds_size()));
-  }
+  const bool roi = EngineStrategy(config->strategy()).config_block == "roi";
   if (!config->has_roi() && !roi) return absl::OkStatus();
   int32_t points = config->roi().reference_points();
   if (absl::Status s =
@@ -339,7 +345,7 @@ absl::Status ValidateRoi(absl::string_view path, v1::SessionConfig* config) {
 // OptimisticConfig: beta in (0, 10] when set; filled in (1) for
 // STRATEGY_OPTIMISTIC.
 absl::Status ValidateOptimistic(absl::string_view path, v1::SessionConfig* config) {
-  const bool optimistic = config->strategy() == v1::STRATEGY_OPTIMISTIC;
+  const bool optimistic = EngineStrategy(config->strategy()).config_block == "optimistic";
   if (config->optimistic().has_beta()) {
     const double beta = config->optimistic().beta();
     if (!std::isfinite(beta) || !(beta > 0.0) || beta > 10.0) {
@@ -357,8 +363,7 @@ absl::Status ValidateOptimistic(absl::string_view path, v1::SessionConfig* confi
 absl::Status ValidateSparse(absl::string_view path, v1::SessionConfig* config) {
   const std::string spath = Field(path, "sparse");
   v1::SparseConfig* sparse = config->mutable_sparse();
-  const bool joint =
-      config->strategy() == v1::STRATEGY_MI || config->strategy() == v1::STRATEGY_ROI;
+  const bool joint = EngineStrategy(config->strategy()).needs_joint_covariances;
   if (!sparse->has_above_samples()) {
     sparse->set_above_samples(joint ? 0 : kDefaultSparseAboveSamples);
   }
@@ -533,13 +538,13 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
                 absl::StrCat("unknown value ", static_cast<int>(config->strategy()),
                              "; valid: ", ValidStrategyNames())));
   }
-  if (config->strategy() == v1::STRATEGY_GREEDY) {
+  if (const int fixed = EngineStrategy(config->strategy()).fixed_horizon; fixed > 0) {
     if (config->horizon() < 0 || config->horizon() > kMaxHorizon) {
       problems.Add(Invalid(
           Field(path, "horizon"),
           absl::StrCat("must be in [1, ", kMaxHorizon, "], got ", config->horizon())));
     } else {
-      config->set_horizon(1);  // greedy is rec with M = 1
+      config->set_horizon(fixed);  // e.g. greedy is rec with M = 1
     }
   } else {
     int32_t horizon = config->horizon();
@@ -573,6 +578,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
   if (min_ok.ok()) refit->set_min_samples(min_samples);
 
   if (dims_ok) {
+    problems.Add(ValidateStrategyNeeds(path, *config));
     problems.Add(ValidateSignal(path, config));
     problems.Add(ValidateSep(path, config));
     problems.Add(ValidateRoi(path, config));

@@ -2,6 +2,8 @@
 
 #include <limits>
 
+#include "server/service/strategy_names.h"
+
 namespace excite::service {
 
 gp::Hyperparameters FromProto(const v1::Hyperparameters& proto) {
@@ -75,38 +77,7 @@ gp::DynamicsModelOptions ModelOptionsFromConfig(const v1::SessionConfig& config)
 
 plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
   plan::PlanOptions options;
-  switch (config.strategy()) {
-    case v1::STRATEGY_PA:
-      options.strategy = plan::Strategy::kPa;
-      break;
-    case v1::STRATEGY_GREEDY:
-      options.strategy = plan::Strategy::kGreedy;
-      break;
-    case v1::STRATEGY_PRBS:
-      options.strategy = plan::Strategy::kPrbs;
-      break;
-    case v1::STRATEGY_CHIRP:
-      options.strategy = plan::Strategy::kChirp;
-      break;
-    case v1::STRATEGY_RANDOM:
-      options.strategy = plan::Strategy::kRandom;
-      break;
-    case v1::STRATEGY_SEP:
-      options.strategy = plan::Strategy::kSep;
-      break;
-    case v1::STRATEGY_MI:
-      options.strategy = plan::Strategy::kMi;
-      break;
-    case v1::STRATEGY_ROI:
-      options.strategy = plan::Strategy::kRoi;
-      break;
-    case v1::STRATEGY_OPTIMISTIC:
-      options.strategy = plan::Strategy::kOptimistic;
-      break;
-    default:
-      options.strategy = plan::Strategy::kRec;
-      break;
-  }
+  options.strategy = EngineStrategy(config.strategy()).strategy;
   options.horizon = config.horizon();
   options.input_lower.resize(config.input_dim());
   options.input_upper.resize(config.input_dim());

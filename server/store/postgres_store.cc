@@ -13,6 +13,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "server/store/double_blob.h"
+#include "server/store/sample_rows.h"
 
 namespace excite::store {
 namespace {
@@ -420,28 +421,12 @@ absl::StatusOr<std::vector<SampleRecord>> PostgresStore::LoadSamples(
         tx.commit();
         samples.reserve(rows.size());
         for (const pqxx::row& row : rows) {
-          SampleRecord record;
-          record.sequence = row[0].as<int64_t>();
-          absl::StatusOr<std::vector<double>> state = DecodeDoubles(Bytes(row[1]));
-          absl::StatusOr<std::vector<double>> input = DecodeDoubles(Bytes(row[2]));
-          absl::StatusOr<std::vector<double>> next_state = DecodeDoubles(Bytes(row[3]));
-          if (!state.ok() || !input.ok() || !next_state.ok()) {
-            if (unreadable != nullptr) {
-              unreadable->push_back(record.sequence);
-              continue;
-            }
-            const absl::Status& bad = !state.ok()   ? state.status()
-                                      : !input.ok() ? input.status()
-                                                    : next_state.status();
-            return absl::DataLossError(absl::StrCat("session ", session_id, " sample ",
-                                                    record.sequence, ": ",
-                                                    bad.message()));
+          if (absl::Status s = AppendSampleRow(
+                  session_id, row[0].as<int64_t>(), Bytes(row[1]), Bytes(row[2]),
+                  Bytes(row[3]), row[4].as<double>(), &samples, unreadable);
+              !s.ok()) {
+            return s;
           }
-          record.state = *std::move(state);
-          record.input = *std::move(input);
-          record.next_state = *std::move(next_state);
-          record.timestamp_s = row[4].as<double>();
-          samples.push_back(std::move(record));
         }
         return absl::OkStatus();
       });

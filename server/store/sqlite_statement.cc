@@ -136,10 +136,6 @@ std::string SqliteStatement::ColumnBlob(int column) const {
   return std::string(static_cast<const char*>(blob), static_cast<size_t>(size));
 }
 
-absl::StatusOr<std::vector<double>> SqliteStatement::ColumnDoubles(int column) const {
-  return DecodeDoubles(ColumnBlob(column));
-}
-
 int64_t SqliteStatement::ColumnInt64(int column) const {
   return sqlite3_column_int64(stmt_, column);
 }

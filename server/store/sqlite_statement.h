@@ -44,8 +44,6 @@ class SqliteStatement {
   // Columns are 0-based as in SQLite; valid after Step() returned true.
   std::string ColumnText(int column) const;
   std::string ColumnBlob(int column) const;
-  // INVALID data (DATA_LOSS) if the blob length is not a multiple of 8.
-  absl::StatusOr<std::vector<double>> ColumnDoubles(int column) const;
   int64_t ColumnInt64(int column) const;
   double ColumnDouble(int column) const;
 

@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "server/store/sample_rows.h"
 #include "server/store/sqlite_statement.h"
 
 namespace excite::store {
@@ -523,27 +524,12 @@ absl::StatusOr<std::vector<SampleRecord>> SqliteStore::LoadSamples(
     absl::StatusOr<bool> row = stmt->Step();
     if (!row.ok()) return row.status();
     if (!*row) break;
-    SampleRecord record;
-    record.sequence = stmt->ColumnInt64(0);
-    absl::StatusOr<std::vector<double>> state = stmt->ColumnDoubles(1);
-    absl::StatusOr<std::vector<double>> input = stmt->ColumnDoubles(2);
-    absl::StatusOr<std::vector<double>> next_state = stmt->ColumnDoubles(3);
-    if (!state.ok() || !input.ok() || !next_state.ok()) {
-      if (unreadable != nullptr) {
-        unreadable->push_back(record.sequence);
-        continue;
-      }
-      const absl::Status& bad = !state.ok()   ? state.status()
-                                : !input.ok() ? input.status()
-                                              : next_state.status();
-      return absl::DataLossError(absl::StrCat("session ", session_id, " sample ",
-                                              record.sequence, ": ", bad.message()));
+    if (absl::Status s = AppendSampleRow(
+            session_id, stmt->ColumnInt64(0), stmt->ColumnBlob(1), stmt->ColumnBlob(2),
+            stmt->ColumnBlob(3), stmt->ColumnDouble(4), &samples, unreadable);
+        !s.ok()) {
+      return s;
     }
-    record.state = *std::move(state);
-    record.input = *std::move(input);
-    record.next_state = *std::move(next_state);
-    record.timestamp_s = stmt->ColumnDouble(4);
-    samples.push_back(std::move(record));
   }
   return samples;
 }

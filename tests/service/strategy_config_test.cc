@@ -9,6 +9,7 @@
 #include "server/service/config_text.h"
 #include "server/service/config_validation.h"
 #include "server/service/session_options.h"
+#include "server/service/strategy_names.h"
 
 namespace excite::service {
 namespace {
@@ -39,6 +40,28 @@ void ExpectInvalid(v1::SessionConfig config, const std::string& field,
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
   EXPECT_THAT(std::string(status.message()), StartsWith(field + ":")) << status;
   EXPECT_THAT(std::string(status.message()), HasSubstr(what)) << status;
+}
+
+// Every strategy of the wire has its row in the engine's table under its short
+// name, and every row is on the wire: adding one means the proto enum and the row.
+TEST(StrategyConfigTest, TheWireAndTheTableNameTheSameStrategies) {
+  const google::protobuf::EnumDescriptor* enums = v1::Strategy_descriptor();
+  int on_the_wire = 0;
+  for (int i = 0; i < enums->value_count(); ++i) {
+    const auto strategy = static_cast<v1::Strategy>(enums->value(i)->number());
+    if (strategy == v1::STRATEGY_UNSPECIFIED) continue;
+    ++on_the_wire;
+    const std::string name = StrategyShortName(strategy);
+    const plan::StrategyInfo* info = plan::FindStrategy(name);
+    ASSERT_NE(info, nullptr) << name << " has no row in plan/strategy.cc";
+    EXPECT_EQ(&EngineStrategy(strategy), info);
+    EXPECT_EQ(PlanOptionsFromConfig(Config(strategy)).strategy, info->strategy);
+    EXPECT_EQ(*ParseStrategyName(name), strategy);
+  }
+  EXPECT_EQ(on_the_wire, static_cast<int>(plan::Strategies().size()));
+  EXPECT_EQ(StrategyShortName(v1::STRATEGY_UNSPECIFIED), "rec");
+  EXPECT_THAT(std::string(ParseStrategyName("foo").status().message()),
+              HasSubstr("expected one of rec, pa, greedy"));
 }
 
 TEST(StrategyConfigTest, DefaultsAreFilledOnlyForTheSessionsStrategy) {

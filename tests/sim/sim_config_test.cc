@@ -8,6 +8,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "server/service/strategy_names.h"
 #include "sim/plants/plant_factory.h"
 
 namespace excite::sim {
@@ -170,25 +171,28 @@ TEST(SimConfigTest, Overrides) {
 }
 
 TEST(SimConfigTest, StrategyNames) {
-  EXPECT_EQ(*ParseStrategy("rec"), v1::STRATEGY_REC);
-  EXPECT_EQ(*ParseStrategy("pa"), v1::STRATEGY_PA);
-  EXPECT_EQ(*ParseStrategy("greedy"), v1::STRATEGY_GREEDY);
-  EXPECT_EQ(*ParseStrategy("prbs"), v1::STRATEGY_PRBS);
-  EXPECT_EQ(*ParseStrategy("chirp"), v1::STRATEGY_CHIRP);
-  EXPECT_EQ(*ParseStrategy("random"), v1::STRATEGY_RANDOM);
-  EXPECT_EQ(*ParseStrategy("sep"), v1::STRATEGY_SEP);
-  EXPECT_EQ(ParseStrategy("SEP").status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(ParseStrategy("p&a").status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(ParseStrategy("").status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(*service::ParseStrategyName("rec"), v1::STRATEGY_REC);
+  EXPECT_EQ(*service::ParseStrategyName("pa"), v1::STRATEGY_PA);
+  EXPECT_EQ(*service::ParseStrategyName("greedy"), v1::STRATEGY_GREEDY);
+  EXPECT_EQ(*service::ParseStrategyName("prbs"), v1::STRATEGY_PRBS);
+  EXPECT_EQ(*service::ParseStrategyName("chirp"), v1::STRATEGY_CHIRP);
+  EXPECT_EQ(*service::ParseStrategyName("random"), v1::STRATEGY_RANDOM);
+  EXPECT_EQ(*service::ParseStrategyName("sep"), v1::STRATEGY_SEP);
+  EXPECT_EQ(service::ParseStrategyName("SEP").status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(service::ParseStrategyName("p&a").status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(service::ParseStrategyName("").status().code(),
+            absl::StatusCode::kInvalidArgument);
   // Every name round-trips.
   for (const char* name : {"rec", "pa", "greedy", "prbs", "chirp", "random", "sep", "mi",
                            "roi", "optimistic"}) {
-    absl::StatusOr<v1::Strategy> strategy = ParseStrategy(name);
+    absl::StatusOr<v1::Strategy> strategy = service::ParseStrategyName(name);
     ASSERT_TRUE(strategy.ok()) << name;
-    EXPECT_EQ(StrategyName(*strategy), name);
+    EXPECT_EQ(service::StrategyShortName(*strategy), name);
   }
-  EXPECT_EQ(StrategyName(v1::STRATEGY_PA), "pa");
-  EXPECT_EQ(StrategyName(v1::STRATEGY_UNSPECIFIED), "rec");
+  EXPECT_EQ(service::StrategyShortName(v1::STRATEGY_PA), "pa");
+  EXPECT_EQ(service::StrategyShortName(v1::STRATEGY_UNSPECIFIED), "rec");
 }
 
 }  // namespace

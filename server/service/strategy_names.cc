@@ -1,0 +1,45 @@
+#include "server/service/strategy_names.h"
+
+#include <vector>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+
+namespace excite::service {
+namespace {
+
+constexpr absl::string_view kPrefix = "STRATEGY_";
+
+}  // namespace
+
+std::string StrategyShortName(v1::Strategy strategy) {
+  if (strategy == v1::STRATEGY_UNSPECIFIED || !v1::Strategy_IsValid(strategy)) {
+    strategy = v1::STRATEGY_REC;  // what validation fills in
+  }
+  std::string name = v1::Strategy_Name(strategy);
+  if (absl::StartsWith(name, kPrefix)) name.erase(0, kPrefix.size());
+  return absl::AsciiStrToLower(name);
+}
+
+absl::StatusOr<v1::Strategy> ParseStrategyName(absl::string_view name) {
+  std::vector<std::string> valid;
+  const google::protobuf::EnumDescriptor* strategies = v1::Strategy_descriptor();
+  for (int i = 0; i < strategies->value_count(); ++i) {
+    const auto value = static_cast<v1::Strategy>(strategies->value(i)->number());
+    if (value == v1::STRATEGY_UNSPECIFIED) continue;
+    if (StrategyShortName(value) == name) return value;
+    valid.push_back(StrategyShortName(value));
+  }
+  return absl::InvalidArgumentError(absl::StrCat("unknown strategy \"", name,
+                                                 "\" (expected one of ",
+                                                 absl::StrJoin(valid, ", "), ")"));
+}
+
+const plan::StrategyInfo& EngineStrategy(v1::Strategy strategy) {
+  const plan::StrategyInfo* info = plan::FindStrategy(StrategyShortName(strategy));
+  return info != nullptr ? *info : plan::InfoOf(plan::Strategy::kRec);
+}
+
+}  // namespace excite::service

@@ -1,0 +1,28 @@
+#ifndef EXCITE_SERVER_SERVICE_STRATEGY_NAMES_H_
+#define EXCITE_SERVER_SERVICE_STRATEGY_NAMES_H_
+
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "excite/v1/session_config.pb.h"
+#include "server/plan/strategy.h"
+
+namespace excite::service {
+
+// A strategy's short name: the wire's enum name without STRATEGY_, in lower case
+// (v1::STRATEGY_REC -> "rec"), which is also its plan::StrategyInfo::name.
+// UNSPECIFIED and unknown values are "rec" (validation fills in rec).
+std::string StrategyShortName(v1::Strategy strategy);
+
+// The strategy whose short name is `name` ("rec"). INVALID_ARGUMENT listing the
+// valid short names otherwise.
+absl::StatusOr<v1::Strategy> ParseStrategyName(absl::string_view name);
+
+// The engine's row of a wire strategy (UNSPECIFIED and unknown values: rec's,
+// the default a validated config has).
+const plan::StrategyInfo& EngineStrategy(v1::Strategy strategy);
+
+}  // namespace excite::service
+
+#endif  // EXCITE_SERVER_SERVICE_STRATEGY_NAMES_H_
