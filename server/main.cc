@@ -17,11 +17,11 @@
 #include "absl/flags/flag.h"
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "common/logging.h"
 #include "common/usage.h"
 #include "server/blas/blas_lock.h"
 #include "server/service/auth.h"
 #include "server/service/excite_server.h"
-#include "server/service/logging.h"
 
 ABSL_FLAG(std::string, listen, "127.0.0.1:50051",
           "Address to listen on, HOST:PORT; port 0 picks a free port (printed).");
@@ -67,7 +67,8 @@ ABSL_FLAG(std::string, auth_token_file, "",
           "Bearer <token>\"), health checks excepted; default: $EXCITE_AUTH_TOKEN.");
 ABSL_FLAG(int64_t, max_samples_per_session, 20000, "Cap on the samples of one session.");
 ABSL_FLAG(int64_t, max_predict_points, 100000, "Cap on the points of one Predict call.");
-ABSL_FLAG(int32_t, max_horizon, 200, "Cap on a new session's horizon (at most 200).");
+ABSL_FLAG(int32_t, max_horizon, excite::service::kMaxHorizon,
+          "Cap on a new session's horizon (at most 200, validation's kMaxHorizon).");
 ABSL_FLAG(int64_t, memory_budget_mb, 0,
           "Memory the sessions' models may take in all (estimated peak, MiB); requests "
           "beyond it get RESOURCE_EXHAUSTED. 0: three quarters of the cgroup's memory "
@@ -75,22 +76,21 @@ ABSL_FLAG(int64_t, memory_budget_mb, 0,
 
 namespace {
 
-using excite::service::Log;
-using excite::service::LogLevel;
+using excite::Log;
+using excite::LogLevel;
 
 int Run(int argc, char** argv) {
   excite::ParseFlags(
       argc, argv,
       "excite-server [--listen=HOST:PORT] [--data_dir=DIR] [--log_level=LEVEL]");
 
-  absl::StatusOr<LogLevel> level =
-      excite::service::ParseLogLevel(absl::GetFlag(FLAGS_log_level));
+  absl::StatusOr<LogLevel> level = excite::ParseLogLevel(absl::GetFlag(FLAGS_log_level));
   if (!level.ok()) {
     std::fprintf(stderr, "excite-server: --log_level: %s\n",
                  std::string(level.status().message()).c_str());
     return 2;
   }
-  excite::service::SetLogLevel(*level);
+  excite::SetLogLevel(*level);
   if (absl::Status blas = excite::blas::CheckBlasRunsOnTheCallingThread(); !blas.ok()) {
     std::fprintf(stderr, "excite-server: %s\n", std::string(blas.message()).c_str());
     return 2;

@@ -171,8 +171,8 @@ void BM_HalfCheetahPlan(benchmark::State& state) {
   for (auto _ : state) {
     const Clock::time_point t0 = Clock::now();
     PlanSummary summary;
-    auto plan =
-        planner.PlanInputs(model, data.next.row(k).transpose(), PlanLimits{}, &summary);
+    auto plan = planner.PlanInputs(model, data.next.row(k).transpose(), 0, PlanLimits{},
+                                   &summary);
     plan_ms.push_back(Ms(Clock::now() - t0));
     k = std::min(k + 1, n + 19);
     if (!plan.ok()) {
@@ -223,8 +223,8 @@ void BM_RecStep(benchmark::State& state) {
     auto fit = model.Refit();
     const Clock::time_point t1 = Clock::now();
     PlanSummary summary;
-    auto plan =
-        planner.PlanInputs(model, data.next.row(k).transpose(), PlanLimits{}, &summary);
+    auto plan = planner.PlanInputs(model, data.next.row(k).transpose(), 0, PlanLimits{},
+                                   &summary);
     const Clock::time_point t2 = Clock::now();
     ++k;
     if (!added.ok() || !fit.ok() || !plan.ok()) {
@@ -285,7 +285,7 @@ void BM_RecStepAtSize(benchmark::State& state) {
       ++refits;
     }
     PlanSummary summary;
-    auto plan = ok.ok() ? planner.PlanInputs(model, data.next.row(k).transpose(),
+    auto plan = ok.ok() ? planner.PlanInputs(model, data.next.row(k).transpose(), 0,
                                              PlanLimits{}, &summary)
                         : absl::StatusOr<Plan>(ok);
     step_ms.push_back(Ms(Clock::now() - t0));
@@ -336,7 +336,7 @@ void BM_PaPlan(benchmark::State& state) {
     Planner planner(PendulumOptions(Strategy::kPa));
     PlanSummary summary;
     auto plan =
-        planner.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), PlanLimits{}, &summary);
+        planner.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), 0, PlanLimits{}, &summary);
     if (!plan.ok()) {
       state.SkipWithError("plan failed");
       break;
@@ -363,7 +363,7 @@ void BM_SepPlan(benchmark::State& state) {
   for (auto _ : state) {
     PlanSummary summary;
     auto plan =
-        planner.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), PlanLimits{}, &summary);
+        planner.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), 0, PlanLimits{}, &summary);
     if (!plan.ok()) {
       state.SkipWithError("plan failed");
       break;

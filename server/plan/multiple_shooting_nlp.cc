@@ -4,7 +4,7 @@
 #include <cmath>
 #include <utility>
 
-#include "server/plan/entropy_objective.h"
+#include "server/plan/entropy_objective.h"  // kVarianceFloor
 #include "server/plan/ipopt_lock.h"
 
 namespace excite::plan {
@@ -13,23 +13,7 @@ namespace {
 // Ipopt treats |bound| >= 1e19 as infinite (nlp_lower/upper_bound_inf).
 constexpr double kInfinity = 2e19;
 
-const NegativeEntropyObjective& EntropyObjective() {
-  static const NegativeEntropyObjective* const objective = new NegativeEntropyObjective;
-  return *objective;
-}
-
 }  // namespace
-
-MultipleShootingNlp::MultipleShootingNlp(const gp::DynamicsPredictor& model,
-                                         const Eigen::VectorXd& x0,
-                                         const Eigen::VectorXd& input_lower,
-                                         const Eigen::VectorXd& input_upper,
-                                         const Eigen::MatrixXd& initial_inputs,
-                                         const Eigen::MatrixXd& initial_states,
-                                         StopFn stop, double feasibility_tolerance)
-    : MultipleShootingNlp(model, EntropyObjective(), x0, input_lower, input_upper,
-                          initial_inputs, initial_states, std::move(stop),
-                          feasibility_tolerance) {}
 
 MultipleShootingNlp::MultipleShootingNlp(
     const gp::DynamicsPredictor& model, const ShootingObjective& objective,

@@ -41,13 +41,6 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
                       const Eigen::MatrixXd& initial_inputs,
                       const Eigen::MatrixXd& initial_states, StopFn stop = nullptr,
                       double feasibility_tolerance = 1e-6);
-  // The paper's problem: objective = NegativeEntropyObjective.
-  MultipleShootingNlp(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
-                      const Eigen::VectorXd& input_lower,
-                      const Eigen::VectorXd& input_upper,
-                      const Eigen::MatrixXd& initial_inputs,
-                      const Eigen::MatrixXd& initial_states, StopFn stop = nullptr,
-                      double feasibility_tolerance = 1e-6);
 
   // State constraints (safe_box.h) on every predicted next state, as 2 M dx
   // inequality rows after the dynamics rows: mean_j(z_i) +- margin sd_j(z_i)

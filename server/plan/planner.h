@@ -51,12 +51,6 @@ class Planner {
   absl::StatusOr<Plan> PlanInputs(const gp::DynamicsPredictor& model,
                                   const Eigen::VectorXd& x0, int64_t time_index,
                                   const PlanLimits& limits, PlanSummary* summary);
-  // The same with time_index 0 (for the model-based strategies it is unused).
-  absl::StatusOr<Plan> PlanInputs(const gp::DynamicsPredictor& model,
-                                  const Eigen::VectorXd& x0, const PlanLimits& limits,
-                                  PlanSummary* summary) {
-    return PlanInputs(model, x0, 0, limits, summary);
-  }
 
   const PlanOptions& options() const { return options_; }
 

@@ -10,11 +10,11 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
+#include "common/logging.h"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/health_check_service_interface.h"
 #include "grpcpp/security/server_credentials.h"
 #include "grpcpp/server_builder.h"
-#include "server/service/logging.h"
 #include "server/service/malformed_request_interceptor.h"
 #include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
@@ -95,10 +95,11 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
         absl::StrCat("memory budget must be >= 0 (0: the default), got ",
                      options.memory_budget_bytes));
   }
-  server->budget_ = std::make_unique<MemoryBudget>(options.memory_budget_bytes > 0
-                                                       ? options.memory_budget_bytes
-                                                       : DefaultMemoryBudgetBytes());
-  RegistryOptions registry_options;
+  server->budget_ = std::make_unique<MemoryBudget>(
+      options.memory_budget_bytes > 0 ? options.memory_budget_bytes
+                                      : session::DefaultMemoryBudgetBytes());
+  session::RegistryOptions registry_options;
+  registry_options.format = &server->format_;
   registry_options.max_sessions = options.limits.max_sessions;
   registry_options.metrics = server->metrics_.get();
   registry_options.budget = server->budget_.get();
@@ -188,8 +189,8 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
   Log(LogLevel::kInfo,
       absl::StrCat("serving ", server->registry_->size(), " sessions from ",
                    server->store_->location(), "; memory budget ",
-                   FormatBytes(server->budget_->limit()), ", ",
-                   FormatBytes(server->budget_->used()), " in use"));
+                   session::FormatBytes(server->budget_->limit()), ", ",
+                   session::FormatBytes(server->budget_->used()), " in use"));
   if (server->budget_->used() > server->budget_->limit()) {
     Log(LogLevel::kWarning,
         "the stored sessions exceed the memory budget: they are served, but none may "

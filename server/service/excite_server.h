@@ -9,13 +9,17 @@
 #include "grpcpp/server.h"
 #include "server/service/auth.h"
 #include "server/service/exploration_service.h"
-#include "server/service/memory_budget.h"
 #include "server/service/metrics.h"
-#include "server/service/session_registry.h"
+#include "server/service/store_conversion.h"
+#include "server/session/memory_budget.h"
+#include "server/session/session_registry.h"
 #include "server/store/session_store.h"
 #include "server/web/web_view.h"
 
 namespace excite::service {
+
+using session::MemoryBudget;
+using session::SessionRegistry;
 
 struct ServerOptions {
   // "host:port"; port 0 picks a free one (see ExciteServer::address()).
@@ -92,6 +96,7 @@ class ExciteServer {
   int port_ = 0;
   std::unique_ptr<store::SessionStore> store_;
   std::unique_ptr<MemoryBudget> budget_;  // outlives registry_ (its sessions)
+  ProtoStoredFormat format_;  // outlives registry_ (its sessions read with it)
   std::unique_ptr<SessionRegistry> registry_;
   std::unique_ptr<ExplorationService> service_;
   std::unique_ptr<Metrics> metrics_;  // outlives server_ (its interceptors)

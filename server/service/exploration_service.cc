@@ -8,18 +8,28 @@
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
 #include "absl/time/clock.h"
+#include "common/logging.h"
 #include "server/service/config_validation.h"
 #include "server/service/field_violation.h"
 #include "server/service/grpc_status.h"
-#include "server/service/logging.h"
 #include "server/service/request_validation.h"
 #include "server/service/resource_name.h"
 #include "server/service/session_archive.h"
+#include "server/service/session_labels.h"
+#include "server/service/session_options.h"
 #include "server/service/session_proto.h"
 #include "server/service/store_conversion.h"
 
 namespace excite::service {
+
+using session::AddResult;
+using session::Prediction;
+using session::SessionSnapshot;
+using session::SessionSpec;
+using session::StoredSession;
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -127,17 +137,23 @@ grpc::Status ExplorationService::CreateSession(grpc::ServerContext* /*context*/,
                                                v1::Session* response) {
   return RunRpc("CreateSession", request->session_id(), [&]() -> absl::Status {
     // The server's horizon cap applies to the horizon after defaults (an invalid
-    // config is reported by Create below).
-    if (absl::StatusOr<v1::SessionConfig> validated =
-            ValidatedSessionConfig(request->config(), "config");
-        validated.ok()) {
+    // config is reported with every other problem below).
+    absl::StatusOr<v1::SessionConfig> validated =
+        ValidatedSessionConfig(request->config(), "config");
+    if (validated.ok()) {
       if (absl::Status s = CheckHorizonCap(*validated, "config.horizon"); !s.ok()) {
         return s;
       }
     }
-    absl::StatusOr<SessionDescription> created =
-        registry_->Create(request->session_id(), request->config(),
-                          request->display_name(), request->labels());
+    Violations problems;
+    problems.Add(CheckOptionalSessionId(request->session_id(), "session_id"));
+    problems.Add(validated.status());
+    problems.Add(
+        ValidateDisplayNameAndLabels(request->display_name(), request->labels()));
+    if (absl::Status s = problems.Result(); !s.ok()) return s;
+    absl::StatusOr<SessionDescription> created = registry_->Create(
+        request->session_id(), SessionSpecFromConfig(*validated), request->display_name(),
+        Labels(request->labels().begin(), request->labels().end()));
     if (!created.ok()) return created.status();
     *response = SessionToProto(*created);
     Log(LogLevel::kInfo, absl::StrCat("created ", response->name()));
@@ -164,8 +180,9 @@ grpc::Status ExplorationService::ListSessions(grpc::ServerContext* /*context*/,
   return RunRpc("ListSessions", "", [&]() -> absl::Status {
     absl::StatusOr<LabelFilter> filter = LabelFilter::Parse(request->filter());
     if (!filter.ok()) return filter.status();
-    absl::StatusOr<SessionRegistry::Page> page =
-        registry_->List(request->page_size(), request->page_token(), *filter);
+    absl::StatusOr<SessionRegistry::Page> page = registry_->List(
+        request->page_size(), request->page_token(),
+        [&filter](const Labels& labels) { return filter->Matches(labels); });
     if (!page.ok()) return page.status();
     for (const SessionDescription& session : page->sessions) {
       *response->add_sessions() = SessionToProto(session);
@@ -209,7 +226,9 @@ absl::StatusOr<v1::AddDataResponse> ExplorationService::AddMessage(
   const auto naming_the_message = [message_index](const absl::Status& s) {
     return WithMessage(s, absl::StrCat("message ", message_index, ": ", s.message()));
   };
-  if (absl::Status s = ValidateTransitions((*session)->config(), request.transitions());
+  const SessionSpec& spec = (*session)->spec();
+  if (absl::Status s =
+          ValidateTransitions({spec.state_dim, spec.input_dim}, request.transitions());
       !s.ok()) {
     return naming_the_message(s);
   }
@@ -219,7 +238,11 @@ absl::StatusOr<v1::AddDataResponse> ExplorationService::AddMessage(
     batch.push_back(ToSampleRecord(t));
   absl::StatusOr<AddResult> added =
       (*session)->AddSamples(batch, limits_.max_samples_per_session);
-  if (absl::IsInvalidArgument(added.status())) return naming_the_message(added.status());
+  if (absl::IsInvalidArgument(added.status())) {
+    // The model refused the batch (Session::AddSamples: "transitions: ...").
+    return naming_the_message(FieldViolationError(
+        "transitions", absl::StripPrefix(added.status().message(), "transitions: ")));
+  }
   if (!added.ok()) return added.status();
   v1::AddDataResponse response;
   response.set_stored(added->stored);
@@ -313,17 +336,17 @@ grpc::Status ExplorationService::Predict(grpc::ServerContext* context,
     if (!session.ok()) return session.status();
     // Before validating against a config a damaged session may not have.
     if (absl::Status s = (*session)->Damage(); !s.ok()) return s;
-    if (absl::Status s = ValidatePredictInputs((*session)->config(), request->inputs(),
-                                               limits_.max_predict_points);
+    const SessionSpec& spec = (*session)->spec();
+    if (absl::Status s =
+            ValidatePredictInputs({spec.state_dim, spec.input_dim}, request->inputs(),
+                                  limits_.max_predict_points);
         !s.ok()) {
       return s;
     }
-    const v1::SessionConfig& config = (*session)->config();
-    const int z_dim = config.state_dim() + config.input_dim();
+    const int z_dim = spec.state_dim + spec.input_dim;
     absl::StatusOr<Prediction> predicted = (*session)->Predict(
         RowMajorToMatrix(request->inputs(), request->inputs_size() / z_dim, z_dim),
-        request->include_noise(),
-        BudgetDeadline(*context, config.planner().time_budget_s()),
+        request->include_noise(), BudgetDeadline(*context, spec.time_budget_s),
         ClientDeadline(*context), [context]() { return context->IsCancelled(); });
     if (!predicted.ok()) return predicted.status();
     AppendRowMajor(predicted->mean, response->mutable_mean());
@@ -342,12 +365,13 @@ grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
     if (!session.ok()) return session.status();
     // Before validating against a config a damaged session may not have.
     if (absl::Status s = (*session)->Damage(); !s.ok()) return s;
-    if (absl::Status s = ValidatePlanState((*session)->config(), request->state());
+    const SessionSpec& spec = (*session)->spec();
+    if (absl::Status s =
+            ValidatePlanState({spec.state_dim, spec.input_dim}, request->state());
         !s.ok()) {
       return s;
     }
-    const Clock::time_point deadline =
-        BudgetDeadline(*context, (*session)->config().planner().time_budget_s());
+    const Clock::time_point deadline = BudgetDeadline(*context, spec.time_budget_s);
     absl::StatusOr<PlanResult> plan = (*session)->PlanInputs(
         Eigen::Map<const Eigen::VectorXd>(request->state().data(), request->state_size()),
         deadline, [context]() { return context->IsCancelled(); });

@@ -12,9 +12,13 @@
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "excite/v1/exploration_service.grpc.pb.h"
-#include "server/service/session_registry.h"
+#include "server/service/config_validation.h"
+#include "server/session/session_registry.h"
 
 namespace excite::service {
+
+using session::Session;
+using session::SessionRegistry;
 
 // Caps of what one request or session may ask (RESOURCE_EXHAUSTED beyond).
 struct ServiceLimits {
@@ -22,9 +26,9 @@ struct ServiceLimits {
   // Exact GPs cost O(n^2) memory and O(n^3) per refit: beyond this, use fewer.
   int64_t max_samples_per_session = 20000;
   int64_t max_predict_points = 100000;
-  // Largest SessionConfig.horizon (after defaults) a new session may have;
-  // config validation allows up to kMaxHorizon.
-  int32_t max_horizon = 200;
+  // Largest SessionConfig.horizon (after defaults) a new session may have
+  // (--max_horizon may lower it; config validation never allows more).
+  int32_t max_horizon = kMaxHorizon;
   // Largest message sent or received (ServerOptions.max_message_mb, set by
   // ExciteServer): an ExportSession archive beyond it is RESOURCE_EXHAUSTED.
   int64_t max_message_bytes = int64_t{64} * 1024 * 1024;

@@ -13,6 +13,7 @@
 #include "prometheus/family.h"
 #include "prometheus/histogram.h"
 #include "prometheus/registry.h"
+#include "server/session/metrics_sink.h"
 
 namespace excite::service {
 
@@ -34,7 +35,7 @@ class BuildAndLockCollector;
 //   memory)
 //   process_*, excite_build_info, excite_ipopt_lock_*   (process_metrics.h)
 // Thread-safe.
-class Metrics {
+class Metrics final : public session::MetricsSink {
  public:
   Metrics();
   ~Metrics();
@@ -48,9 +49,9 @@ class Metrics {
   void RecordPlan(double seconds);
   // One refit of a session's GP (ML-II fit and factorisation); `stopped` if a
   // deadline or cancellation ended it early.
-  void RecordFit(double seconds, bool stopped);
+  void RecordFit(double seconds, bool stopped) override;
   // One durable store write; `op` names it ("insert_samples", "save_model").
-  void RecordStoreWrite(absl::string_view op, double seconds);
+  void RecordStoreWrite(absl::string_view op, double seconds) override;
   // A gauge read at every scrape; `read` must stay callable while this lives
   // and must not call back into this object.
   void AddGauge(const std::string& name, const std::string& help,

@@ -40,7 +40,7 @@ absl::Status CheckVector(absl::string_view field,
 }  // namespace
 
 absl::Status ValidateTransitions(
-    const v1::SessionConfig& config,
+    const Dims& dims,
     const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
     absl::string_view field) {
   absl::flat_hash_map<int64_t, int> first_index;
@@ -49,17 +49,17 @@ absl::Status ValidateTransitions(
     const v1::Transition& t = transitions[i];
     const std::string path = absl::StrCat(field, "[", i, "]");
     if (absl::Status s = CheckVector(absl::StrCat(path, ".state"), t.state(),
-                                     config.state_dim(), "state_dim");
+                                     dims.state_dim, "state_dim");
         !s.ok()) {
       return s;
     }
     if (absl::Status s = CheckVector(absl::StrCat(path, ".input"), t.input(),
-                                     config.input_dim(), "input_dim");
+                                     dims.input_dim, "input_dim");
         !s.ok()) {
       return s;
     }
     if (absl::Status s = CheckVector(absl::StrCat(path, ".next_state"), t.next_state(),
-                                     config.state_dim(), "state_dim");
+                                     dims.state_dim, "state_dim");
         !s.ok()) {
       return s;
     }
@@ -88,10 +88,10 @@ absl::Status ValidateTransitions(
   return absl::OkStatus();
 }
 
-absl::Status ValidatePredictInputs(const v1::SessionConfig& config,
+absl::Status ValidatePredictInputs(const Dims& dims,
                                    const google::protobuf::RepeatedField<double>& inputs,
                                    int64_t max_points) {
-  const int z_dim = config.state_dim() + config.input_dim();
+  const int z_dim = dims.state_dim + dims.input_dim;
   if (inputs.empty()) {
     return FieldViolationError(
         "inputs", absl::StrCat("must hold at least one point z = (x, u) of state_dim + "
@@ -120,9 +120,9 @@ absl::Status ValidatePredictInputs(const v1::SessionConfig& config,
   return absl::OkStatus();
 }
 
-absl::Status ValidatePlanState(const v1::SessionConfig& config,
+absl::Status ValidatePlanState(const Dims& dims,
                                const google::protobuf::RepeatedField<double>& state) {
-  return CheckVector("state", state, config.state_dim(), "state_dim");
+  return CheckVector("state", state, dims.state_dim, "state_dim");
 }
 
 }  // namespace excite::service

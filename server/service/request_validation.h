@@ -11,6 +11,12 @@
 
 namespace excite::service {
 
+// A session's dimensions, what a request's numbers are checked against.
+struct Dims {
+  int state_dim = 0;
+  int input_dim = 0;
+};
+
 // Checks one AddData message's transitions against a (validated) session config:
 // state/next_state of state_dim and input of input_dim numbers, all finite and
 // within +-kMaxAbsValue (value_ranges.h); sequence in [0, kMaxSequence];
@@ -18,20 +24,20 @@ namespace excite::service {
 // INVALID_ARGUMENT naming the field under `field`, e.g.
 // "transitions[3].state[1]: ..." (a SessionArchive's samples: "archive.samples").
 absl::Status ValidateTransitions(
-    const v1::SessionConfig& config,
+    const Dims& dims,
     const google::protobuf::RepeatedPtrField<v1::Transition>& transitions,
     absl::string_view field = "transitions");
 
 // Checks a Predict batch: non-empty, a multiple of state_dim + input_dim numbers,
 // all finite and within +-kMaxAbsValue (INVALID_ARGUMENT naming "inputs"); at most
 // `max_points` points (RESOURCE_EXHAUSTED).
-absl::Status ValidatePredictInputs(const v1::SessionConfig& config,
+absl::Status ValidatePredictInputs(const Dims& dims,
                                    const google::protobuf::RepeatedField<double>& inputs,
                                    int64_t max_points);
 
 // Checks a PlanInputs state: state_dim finite numbers within +-kMaxAbsValue
 // (INVALID_ARGUMENT "state").
-absl::Status ValidatePlanState(const v1::SessionConfig& config,
+absl::Status ValidatePlanState(const Dims& dims,
                                const google::protobuf::RepeatedField<double>& state);
 
 }  // namespace excite::service

@@ -11,23 +11,12 @@ namespace {
 constexpr absl::string_view kPrefix = "sessions/";
 }  // namespace
 
-bool IsValidSessionId(absl::string_view id) {
-  if (id.empty() || id.size() > 63) return false;
-  for (char c : id) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-';
-    if (!ok) return false;
-  }
-  return true;
-}
-
 absl::Status CheckOptionalSessionId(absl::string_view id, absl::string_view field) {
   if (id.empty() || IsValidSessionId(id)) return absl::OkStatus();
   return FieldViolationError(field,
                              absl::StrCat("\"", absl::CHexEscape(id.substr(0, 100)),
                                           "\" must be 1 to 63 characters [a-z0-9-]"));
 }
-
-std::string SessionName(absl::string_view id) { return absl::StrCat(kPrefix, id); }
 
 absl::StatusOr<std::string> ParseSessionName(absl::string_view name,
                                              absl::string_view field) {

@@ -6,18 +6,16 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "server/session/session_name.h"
 
 namespace excite::service {
 
-// True for a valid session id: 1 to 63 characters of [a-z0-9-].
-bool IsValidSessionId(absl::string_view id);
+using session::IsValidSessionId;  // 1 to 63 characters of [a-z0-9-]
+using session::SessionName;       // "sessions/{id}"
 
 // OK if `id` is empty (the server picks one) or a valid id; otherwise
 // INVALID_ARGUMENT naming `field`.
 absl::Status CheckOptionalSessionId(absl::string_view id, absl::string_view field);
-
-// "sessions/{id}".
-std::string SessionName(absl::string_view id);
 
 // The id of a resource name "sessions/{id}". INVALID_ARGUMENT naming `field` if
 // `name` is not of that form.

@@ -43,7 +43,8 @@ absl::StatusOr<v1::SessionConfig> ValidateSessionArchive(
       ValidatedSessionConfig(archive.config(), absl::StrCat(path, ".config"));
   if (!config.ok()) return config.status();
   if (absl::Status s =
-          ValidateTransitions(*config, archive.samples(), absl::StrCat(path, ".samples"));
+          ValidateTransitions({config->state_dim(), config->input_dim()},
+                              archive.samples(), absl::StrCat(path, ".samples"));
       !s.ok()) {
     return s;
   }
@@ -98,7 +99,8 @@ v1::SessionArchive ArchiveFromStore(const store::SessionRecord& record,
   }
   // The fit is derived from the samples: one that does not parse is left out
   // (the importing server fits anew), not a reason to keep the samples in.
-  if (std::optional<SavedFit> saved = DecodeSavedHyperparameters(record.hyperparameters);
+  if (std::optional<ArchivedFit> saved =
+          DecodeSavedHyperparameters(record.hyperparameters);
       saved.has_value()) {
     for (v1::Hyperparameters& h : saved->hyperparameters) {
       *archive.add_hyperparameters() = std::move(h);

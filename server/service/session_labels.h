@@ -9,10 +9,11 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "google/protobuf/map.h"
+#include "server/session/labels.h"
 
 namespace excite::service {
 
-using Labels = std::map<std::string, std::string>;
+using session::Labels;
 
 // A session's display name (at most 256 characters, no control characters) and
 // labels (at most 64; keys 1-63 of [a-z0-9_-] starting with a letter, values 0-63

@@ -132,4 +132,19 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
   return options;
 }
 
+session::SessionSpec SessionSpecFromConfig(const v1::SessionConfig& config) {
+  session::SessionSpec spec;
+  spec.state_dim = config.state_dim();
+  spec.input_dim = config.input_dim();
+  spec.model = ModelOptionsFromConfig(config);
+  spec.plan = PlanOptionsFromConfig(config);
+  spec.refit.fit_kernel = config.kernel().fit();
+  spec.refit.never = config.refit().never();
+  spec.refit.schedule = {config.refit().every_samples(), config.refit().growth()};
+  spec.refit.min_samples = config.refit().min_samples();
+  spec.time_budget_s = config.planner().time_budget_s();
+  spec.config = config.SerializeAsString();
+  return spec;
+}
+
 }  // namespace excite::service

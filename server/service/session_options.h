@@ -4,6 +4,7 @@
 #include "excite/v1/session_config.pb.h"
 #include "server/gp/dynamics_model.h"
 #include "server/plan/planner.h"
+#include "server/session/session_spec.h"
 
 namespace excite::service {
 
@@ -20,6 +21,11 @@ gp::DynamicsModelOptions ModelOptionsFromConfig(const v1::SessionConfig& config)
 // state_dim of them), Ipopt iterations, restarts, tolerance, seed, signal and sep
 // parameters (0 = the engine's default).
 plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config);
+
+// Everything a session is configured with (server/session), from a validated
+// config (or one as stored): model and plan options as above, the refit policy,
+// the time budget, and the config's serialized bytes.
+session::SessionSpec SessionSpecFromConfig(const v1::SessionConfig& config);
 
 // proto <-> engine hyperparameters (data units).
 gp::Hyperparameters FromProto(const v1::Hyperparameters& proto);

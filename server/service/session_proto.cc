@@ -59,18 +59,19 @@ v1::PlanInputsResponse PlanToProto(const PlanResult& result) {
 v1::Session SessionToProto(const SessionDescription& description) {
   v1::Session proto;
   proto.set_name(SessionName(description.id));
-  *proto.mutable_config() = description.config;
+  // A damaged session's bytes may not parse: it is described without a config.
+  if (!proto.mutable_config()->ParseFromString(description.config)) proto.clear_config();
   proto.set_display_name(description.display_name);
   proto.mutable_labels()->insert(description.labels.begin(), description.labels.end());
   if (const int64_t created = WireUnixMs(description.created_unix_ms); created > 0) {
     *proto.mutable_create_time() =
         google::protobuf::util::TimeUtil::MillisecondsToTimestamp(created);
   }
-  const SessionSnapshot& snapshot = description.snapshot;
+  const session::SessionSnapshot& snapshot = description.snapshot;
   proto.set_sample_count(snapshot.sample_count);
   proto.set_last_sequence(snapshot.last_sequence);
   proto.set_model_version(snapshot.model_version);
-  for (const OutputSnapshot& output : snapshot.outputs) {
+  for (const session::OutputSnapshot& output : snapshot.outputs) {
     v1::OutputModel* out = proto.add_outputs();
     *out->mutable_hyperparameters() = ToProto(output.hyperparameters);
     if (output.log_marginal_likelihood.has_value()) {

@@ -5,9 +5,12 @@
 
 #include "excite/v1/exploration_service.pb.h"
 #include "google/protobuf/repeated_field.h"
-#include "server/service/session.h"
+#include "server/session/session.h"
 
 namespace excite::service {
+
+using session::PlanResult;
+using session::SessionDescription;
 
 // The wire's messages of a session's results (the service's half of the
 // translation; Session speaks in engine types).

@@ -44,10 +44,10 @@ std::string EncodeSavedHyperparameters(
   return saved.SerializeAsString();
 }
 
-std::optional<SavedFit> DecodeSavedHyperparameters(const std::string& bytes) {
+std::optional<ArchivedFit> DecodeSavedHyperparameters(const std::string& bytes) {
   v1::Session saved;
   if (!saved.ParseFromString(bytes)) return std::nullopt;
-  SavedFit result;
+  ArchivedFit result;
   result.fitted_samples = saved.sample_count();
   result.hyperparameters.reserve(static_cast<size_t>(saved.outputs_size()));
   for (const v1::OutputModel& output : saved.outputs()) {
@@ -56,21 +56,32 @@ std::optional<SavedFit> DecodeSavedHyperparameters(const std::string& bytes) {
   return result;
 }
 
-std::string EncodeSavedFit(const std::vector<gp::Hyperparameters>& hyperparameters,
-                           int64_t fitted_samples) {
-  google::protobuf::RepeatedPtrField<v1::Hyperparameters> protos;
-  for (const gp::Hyperparameters& h : hyperparameters) *protos.Add() = ToProto(h);
-  return EncodeSavedHyperparameters(protos, fitted_samples);
+absl::StatusOr<session::SessionSpec> ProtoStoredFormat::DecodeConfig(
+    const std::string& bytes) const {
+  v1::SessionConfig config;
+  if (!config.ParseFromString(bytes)) {
+    return absl::DataLossError("the stored config does not parse");
+  }
+  session::SessionSpec spec = SessionSpecFromConfig(config);
+  spec.config = bytes;  // as stored
+  return spec;
 }
 
-std::optional<EngineFit> DecodeSavedFit(const std::string& bytes, int state_dim,
-                                        int z_dim) {
-  std::optional<SavedFit> saved = DecodeSavedHyperparameters(bytes);
+std::string ProtoStoredFormat::EncodeFit(const session::SavedFit& fit) const {
+  google::protobuf::RepeatedPtrField<v1::Hyperparameters> protos;
+  for (const gp::Hyperparameters& h : fit.hyperparameters) *protos.Add() = ToProto(h);
+  return EncodeSavedHyperparameters(protos, fit.fitted_samples);
+}
+
+std::optional<session::SavedFit> ProtoStoredFormat::DecodeFit(const std::string& bytes,
+                                                              int state_dim,
+                                                              int z_dim) const {
+  std::optional<ArchivedFit> saved = DecodeSavedHyperparameters(bytes);
   if (!saved.has_value() || saved->hyperparameters.empty() ||
       static_cast<int>(saved->hyperparameters.size()) != state_dim) {
     return std::nullopt;
   }
-  EngineFit result;
+  session::SavedFit result;
   result.fitted_samples = saved->fitted_samples;
   for (const v1::Hyperparameters& h : saved->hyperparameters) {
     if (h.lengthscales_size() != z_dim) return std::nullopt;

@@ -5,10 +5,12 @@
 #include <string>
 #include <vector>
 
+#include "absl/status/statusor.h"
 #include "excite/v1/exploration_service.pb.h"
 #include "excite/v1/session_config.pb.h"
 #include "google/protobuf/repeated_field.h"
 #include "server/gp/hyperparameters.h"
+#include "server/session/stored_format.h"
 #include "server/store/store_records.h"
 
 namespace excite::service {
@@ -29,7 +31,7 @@ int64_t WireUnixMs(int64_t stored_unix_ms);
 // serialized Session holding only `outputs` and, as `sample_count`, the number of
 // samples the hyperparameters were fitted on (0 if unknown: saved before it was
 // kept, or imported without it).
-struct SavedFit {
+struct ArchivedFit {
   std::vector<v1::Hyperparameters> hyperparameters;  // one per output
   int64_t fitted_samples = 0;
 };
@@ -38,19 +40,19 @@ std::string EncodeSavedHyperparameters(
     int64_t fitted_samples);
 // nullopt if `bytes` do not parse. Empty bytes (never fitted) give no
 // hyperparameters.
-std::optional<SavedFit> DecodeSavedHyperparameters(const std::string& bytes);
+std::optional<ArchivedFit> DecodeSavedHyperparameters(const std::string& bytes);
 
-// The same bytes in engine types (data units), for the sessions.
-struct EngineFit {
-  std::vector<gp::Hyperparameters> hyperparameters;  // one per output
-  int64_t fitted_samples = 0;
+// The formats of a session's stored bytes for the session domain: the config is
+// a serialized SessionConfig (decoded as stored, not validated again: what an
+// older server stored is restored as it was), the fit as above.
+class ProtoStoredFormat final : public session::StoredFormat {
+ public:
+  absl::StatusOr<session::SessionSpec> DecodeConfig(
+      const std::string& bytes) const override;
+  std::string EncodeFit(const session::SavedFit& fit) const override;
+  std::optional<session::SavedFit> DecodeFit(const std::string& bytes, int state_dim,
+                                             int z_dim) const override;
 };
-std::string EncodeSavedFit(const std::vector<gp::Hyperparameters>& hyperparameters,
-                           int64_t fitted_samples);
-// nullopt if `bytes` are empty, do not parse, or do not hold `state_dim` outputs
-// of `z_dim` lengthscales each.
-std::optional<EngineFit> DecodeSavedFit(const std::string& bytes, int state_dim,
-                                        int z_dim);
 
 }  // namespace excite::service
 

@@ -50,7 +50,6 @@ class SqliteStore final : public SessionStore {
   SqliteStore& operator=(const SqliteStore&) = delete;
 
   // Path of the database file.
-  const std::string& path() const { return path_; }
   std::string location() const override { return path_; }
 
   // SessionStore. InsertSamples uses INSERT OR IGNORE; it and ImportSession cost

@@ -78,15 +78,19 @@ void StoredReadsBack(const v1::SessionArchive& archive, const v1::SessionConfig&
 
 void CheckRequests(const v1::SessionConfig& config, const std::string& bytes) {
   v1::AddDataRequest add;
-  if (add.ParseFromString(bytes) && ValidateTransitions(config, add.transitions()).ok()) {
+  if (add.ParseFromString(bytes) &&
+      ValidateTransitions({config.state_dim(), config.input_dim()}, add.transitions())
+          .ok()) {
     ModelTakes(config, add.transitions());
   }
   v1::PredictRequest predict;
   if (predict.ParseFromString(bytes)) {
-    (void)ValidatePredictInputs(config, predict.inputs(), 1000);
+    (void)ValidatePredictInputs({config.state_dim(), config.input_dim()},
+                                predict.inputs(), 1000);
   }
   v1::PlanInputsRequest plan;
-  if (plan.ParseFromString(bytes)) (void)ValidatePlanState(config, plan.state());
+  if (plan.ParseFromString(bytes))
+    (void)ValidatePlanState({config.state_dim(), config.input_dim()}, plan.state());
 }
 
 void Exercise(const v1::SessionConfig& config, const std::string& bytes) {

@@ -292,7 +292,7 @@ TEST(InformationPlannerTest, MiAndRoiPlanBetterThanTheirStartsAndRandomSequences
   for (Strategy strategy : {Strategy::kMi, Strategy::kRoi}) {
     Planner planner(Options(strategy));
     PlanSummary summary;
-    const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, &summary);
+    const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, &summary);
     ASSERT_TRUE(plan.ok()) << plan.status();
     ASSERT_EQ(plan->inputs.rows(), 10);
     EXPECT_EQ(plan->apply_count, 1);
@@ -333,13 +333,13 @@ TEST(InformationPlannerTest, RoiNeedsStateBoundsAndMiNeedsJointCovariances) {
   o.state_upper.resize(0);
   Planner roi(o);
   PlanSummary summary;
-  auto plan = roi.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), PlanLimits{}, &summary);
+  auto plan = roi.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), 0, PlanLimits{}, &summary);
   EXPECT_EQ(plan.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(plan.status().message().find("roi needs state bounds"), std::string::npos);
 
   const testing::AnalyticPendulum analytic;
   Planner mi(Options(Strategy::kMi));
-  plan = mi.PlanInputs(analytic, Eigen::Vector2d(0.0, 0.0), PlanLimits{}, &summary);
+  plan = mi.PlanInputs(analytic, Eigen::Vector2d(0.0, 0.0), 0, PlanLimits{}, &summary);
   EXPECT_EQ(plan.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(plan.status().message().find("joint posterior covariances"),
             std::string::npos)

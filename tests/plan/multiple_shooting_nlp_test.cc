@@ -13,6 +13,9 @@
 namespace excite::plan {
 namespace {
 
+// The paper's objective (the NLP keeps a reference: it lives as long as the test).
+const NegativeEntropyObjective kEntropy;
+
 using ::excite::plan::testing::AnalyticPendulum;
 using ::excite::plan::testing::WrappedPredictor;
 
@@ -25,8 +28,8 @@ Ipopt::SmartPtr<MultipleShootingNlp> MakeNlp(const gp::DynamicsPredictor& model,
   const Eigen::VectorXd upper = Eigen::VectorXd::Constant(du, 2.0);
   Eigen::MatrixXd inputs = Eigen::MatrixXd::Random(horizon, du) * 1.5;
   Eigen::MatrixXd states = Eigen::MatrixXd::Random(horizon, 2);
-  return new MultipleShootingNlp(model, Eigen::Vector2d(0.2, -0.1), lower, upper, inputs,
-                                 states);
+  return new MultipleShootingNlp(model, kEntropy, Eigen::Vector2d(0.2, -0.1), lower,
+                                 upper, inputs, states);
 }
 
 struct Dense {
@@ -162,7 +165,7 @@ TEST(MultipleShootingNlpTest, SolveKeepsFeasibleBestAndRespectsBounds) {
     x = mean.row(0).transpose();
   }
   Ipopt::SmartPtr<MultipleShootingNlp> nlp =
-      new MultipleShootingNlp(model, x0, lower, upper, inputs, states);
+      new MultipleShootingNlp(model, kEntropy, x0, lower, upper, inputs, states);
   IpoptSettings settings;
   settings.max_iterations = 200;
   const IpoptOutcome outcome = SolveTnlp(nlp, settings);
@@ -184,7 +187,7 @@ TEST(MultipleShootingNlpTest, StopFunctionEndsTheSolve) {
   const AnalyticPendulum model(1);
   int polls = 0;
   Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
-      model, Eigen::Vector2d(0.1, 0.0), Eigen::VectorXd::Constant(1, -1.0),
+      model, kEntropy, Eigen::Vector2d(0.1, 0.0), Eigen::VectorXd::Constant(1, -1.0),
       Eigen::VectorXd::Constant(1, 1.0), Eigen::MatrixXd::Constant(10, 1, 0.3),
       Eigen::MatrixXd::Zero(10, 2), [&polls] { return ++polls >= 3; });
   const IpoptOutcome outcome = SolveTnlp(nlp, IpoptSettings{});

@@ -139,7 +139,7 @@ TEST(OptimisticPlannerTest, PlansAlongAnOptimisticTrajectory) {
   Planner planner(o);
   PlanSummary summary;
   const Eigen::Vector2d x0(0.2, 0.5);
-  const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, &summary);
+  const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, &summary);
   ASSERT_TRUE(plan.ok()) << plan.status();
   ASSERT_EQ(plan->inputs.rows(), 10);
   ASSERT_EQ(plan->states.rows(), 10);
@@ -168,7 +168,7 @@ TEST(OptimisticPlannerTest, PlansAlongAnOptimisticTrajectory) {
 
   o.optimism_beta = 0.0;
   Planner invalid(o);
-  EXPECT_EQ(invalid.PlanInputs(model, x0, PlanLimits{}, &summary).status().code(),
+  EXPECT_EQ(invalid.PlanInputs(model, x0, 0, PlanLimits{}, &summary).status().code(),
             absl::StatusCode::kInvalidArgument);
 }
 

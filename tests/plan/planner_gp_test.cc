@@ -20,6 +20,9 @@
 namespace excite::plan {
 namespace {
 
+// The paper's objective (the NLP keeps a reference: it lives as long as the test).
+const NegativeEntropyObjective kEntropy;
+
 using testing::CheckerStart;
 using testing::DerivativeCheckerLog;
 using testing::FittedModel;
@@ -29,7 +32,7 @@ TEST(PlannerGpTest, IpoptDerivativeCheckerOnTheGp) {
   Eigen::MatrixXd inputs, states;
   CheckerStart(&inputs, &states);
   Ipopt::SmartPtr<MultipleShootingNlp> nlp = new MultipleShootingNlp(
-      model, Eigen::Vector2d(0.1, -0.2), Eigen::VectorXd::Constant(1, -3.0),
+      model, kEntropy, Eigen::Vector2d(0.1, -0.2), Eigen::VectorXd::Constant(1, -3.0),
       Eigen::VectorXd::Constant(1, 3.0), inputs, states);
   const std::string log = DerivativeCheckerLog(nlp);
   EXPECT_NE(log.find("No errors detected by derivative checker"), std::string::npos)
@@ -49,8 +52,8 @@ TEST(PlannerGpTest, ConcurrentPlansAreThePlansMadeAlone) {
     Planner planner(o);
     Eigen::MatrixXd inputs;
     for (int step = 0; step < 3; ++step) {  // warm-started replans
-      auto p = planner.PlanInputs(model, Eigen::Vector2d(angle, 0.1 * step), PlanLimits{},
-                                  nullptr);
+      auto p = planner.PlanInputs(model, Eigen::Vector2d(angle, 0.1 * step), 0,
+                                  PlanLimits{}, nullptr);
       EXPECT_TRUE(p.ok()) << p.status();
       if (p.ok()) inputs = p->inputs;
     }
@@ -78,7 +81,7 @@ TEST(PlannerGpTest, RecPlanBeatsRandomSequences) {
   Planner planner(o);
   const Eigen::VectorXd x0 = Eigen::Vector2d(0.0, 0.0);
   PlanSummary summary;
-  const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, &summary);
+  const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, &summary);
   ASSERT_TRUE(plan.ok()) << plan.status();
   ASSERT_EQ(plan->inputs.rows(), 15);
   EXPECT_TRUE(plan->inputs.allFinite());
@@ -108,8 +111,8 @@ TEST(PlannerGpTest, RecPlanBeatsRandomSequences) {
   RecordProperty("iterations", std::to_string(summary.iterations));
 
   // A second (warm-started) call from the predicted next state.
-  const auto second =
-      planner.PlanInputs(model, plan->states.row(1).transpose(), PlanLimits{}, &summary);
+  const auto second = planner.PlanInputs(model, plan->states.row(1).transpose(), 0,
+                                         PlanLimits{}, &summary);
   ASSERT_TRUE(second.ok()) << second.status();
   EXPECT_EQ(second->inputs.rows(), 15);
 }
@@ -184,7 +187,7 @@ TEST(PlannerGpTest, SepPlanOnTheGp) {
   Planner planner(o);
   const Eigen::VectorXd x0 = Eigen::Vector2d(0.0, 0.0);
   PlanSummary summary;
-  const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, &summary);
+  const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, &summary);
   ASSERT_TRUE(plan.ok()) << plan.status();
   const int rows = static_cast<int>(plan->inputs.rows());
   EXPECT_LE(rows, 16);

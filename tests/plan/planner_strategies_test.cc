@@ -160,7 +160,7 @@ TEST(PlannerStrategiesTest, SepNeedsStateBounds) {
   PlanOptions o = Options(Strategy::kSep);
   o.state_lower.resize(0);
   o.state_upper.resize(0);
-  const auto plan = Planner(o).PlanInputs(model, Eigen::Vector2d(0, 0), {}, nullptr);
+  const auto plan = Planner(o).PlanInputs(model, Eigen::Vector2d(0, 0), 0, {}, nullptr);
   EXPECT_EQ(plan.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(plan.status().message().find("state bounds"), std::string::npos);
 }
@@ -172,7 +172,7 @@ TEST(PlannerStrategiesTest, SepSearchesSteersAndAppliesTheTargetInput) {
   Planner planner(o);
   const Eigen::VectorXd x0 = Eigen::Vector2d(0.1, 0.0);
   PlanSummary summary;
-  const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, &summary);
+  const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, &summary);
   ASSERT_TRUE(plan.ok()) << plan.status();
   const int rows = static_cast<int>(plan->inputs.rows());
   ASSERT_GE(rows, 1);
@@ -219,9 +219,10 @@ TEST(PlannerStrategiesTest, SepCancelledBeforeStartIsCancelled) {
   Planner planner(Options(Strategy::kSep));
   PlanLimits limits;
   limits.cancelled = [] { return true; };
-  EXPECT_EQ(
-      planner.PlanInputs(model, Eigen::Vector2d(0, 0), limits, nullptr).status().code(),
-      absl::StatusCode::kCancelled);
+  EXPECT_EQ(planner.PlanInputs(model, Eigen::Vector2d(0, 0), 0, limits, nullptr)
+                .status()
+                .code(),
+            absl::StatusCode::kCancelled);
 }
 
 TEST(PlannerStrategiesTest, SepPastDeadlineStillReturnsAFeasiblePlan) {
@@ -230,7 +231,7 @@ TEST(PlannerStrategiesTest, SepPastDeadlineStillReturnsAFeasiblePlan) {
   PlanLimits limits;
   limits.deadline = std::chrono::steady_clock::now();
   PlanSummary summary;
-  const auto plan = planner.PlanInputs(model, Eigen::Vector2d(0, 0), limits, &summary);
+  const auto plan = planner.PlanInputs(model, Eigen::Vector2d(0, 0), 0, limits, &summary);
   ASSERT_TRUE(plan.ok()) << plan.status();
   EXPECT_EQ(summary.status, PlanStatus::kTimeLimit);
   EXPECT_EQ(summary.starts, 0);

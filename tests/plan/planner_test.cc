@@ -69,7 +69,7 @@ TEST(PlannerTest, BeatsRandomInputSequencesAndIsConsistent) {
   Planner planner(o);
   const Eigen::VectorXd x0 = Eigen::Vector2d(0.0, 0.0);
   PlanSummary summary;
-  const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, &summary);
+  const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, &summary);
   ASSERT_TRUE(plan.ok()) << plan.status();
   ExpectWellFormed(*plan, o, 15);
   EXPECT_EQ(plan->apply_count, 1);
@@ -110,7 +110,7 @@ TEST(PlannerTest, StrategiesSetHorizonAndApplyCount) {
   {
     const PlanOptions o = Options(Strategy::kGreedy, 15);
     Planner planner(o);
-    const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, nullptr);
+    const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, nullptr);
     ASSERT_TRUE(plan.ok()) << plan.status();
     ExpectWellFormed(*plan, o, 1);
     EXPECT_EQ(plan->apply_count, 1);
@@ -118,7 +118,7 @@ TEST(PlannerTest, StrategiesSetHorizonAndApplyCount) {
   {
     const PlanOptions o = Options(Strategy::kPa, 7);
     Planner planner(o);
-    const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, nullptr);
+    const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, nullptr);
     ASSERT_TRUE(plan.ok()) << plan.status();
     ExpectWellFormed(*plan, o, 7);
     EXPECT_EQ(plan->apply_count, 7);
@@ -126,7 +126,7 @@ TEST(PlannerTest, StrategiesSetHorizonAndApplyCount) {
   {
     const PlanOptions o = Options(Strategy::kRec, 7);
     Planner planner(o);
-    const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, nullptr);
+    const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, nullptr);
     ASSERT_TRUE(plan.ok()) << plan.status();
     ExpectWellFormed(*plan, o, 7);
     EXPECT_EQ(plan->apply_count, 1);
@@ -140,7 +140,7 @@ TEST(PlannerTest, AsymmetricTwoInputBounds) {
   o.input_upper = Eigen::Vector2d(0.9, -1.0);
   Planner planner(o);
   const auto plan =
-      planner.PlanInputs(model, Eigen::Vector2d(0.1, 0.1), PlanLimits{}, nullptr);
+      planner.PlanInputs(model, Eigen::Vector2d(0.1, 0.1), 0, PlanLimits{}, nullptr);
   ASSERT_TRUE(plan.ok()) << plan.status();
   ExpectWellFormed(*plan, o, 8);
 }
@@ -154,7 +154,7 @@ TEST(PlannerTest, WarmStartIsThePreviousPlanShifted) {
     o.restarts = 2;
     Planner planner(o);
     const Eigen::VectorXd x0 = Eigen::Vector2d(0.0, 0.0);
-    const auto first = planner.PlanInputs(model, x0, PlanLimits{}, nullptr);
+    const auto first = planner.PlanInputs(model, x0, 0, PlanLimits{}, nullptr);
     ASSERT_TRUE(first.ok());
     o = planner.options();
     // A second planner would not have the warm start; reuse this one with the
@@ -165,7 +165,7 @@ TEST(PlannerTest, WarmStartIsThePreviousPlanShifted) {
     const int shift = first->apply_count;
     const Eigen::VectorXd next = first->states.row(std::min(shift, 5)).transpose();
     PlanSummary summary;
-    const auto second = probe.PlanInputs(model, next, PlanLimits{}, &summary);
+    const auto second = probe.PlanInputs(model, next, 0, PlanLimits{}, &summary);
     ASSERT_TRUE(second.ok());
     EXPECT_EQ(summary.starts, 1);
     for (int i = 0; i < 6; ++i) {
@@ -186,7 +186,7 @@ TEST(PlannerTest, PastDeadlineReturnsQuicklyWithTimeLimit) {
   PlanSummary summary;
   const Clock::time_point t0 = Clock::now();
   const auto plan =
-      planner.PlanInputs(model, Eigen::Vector2d(0.1, 0.0), limits, &summary);
+      planner.PlanInputs(model, Eigen::Vector2d(0.1, 0.0), 0, limits, &summary);
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   ASSERT_TRUE(plan.ok()) << plan.status();
   EXPECT_EQ(summary.status, PlanStatus::kTimeLimit);
@@ -204,7 +204,7 @@ TEST(PlannerTest, DeadlineCutsASlowSolveShort) {
   // Without a deadline the 4 solves take far longer than the deadline below.
   PlanSummary full;
   Planner(o)
-      .PlanInputs(slow, Eigen::Vector2d(0.1, 0.0), PlanLimits{}, &full)
+      .PlanInputs(slow, Eigen::Vector2d(0.1, 0.0), 0, PlanLimits{}, &full)
       .IgnoreError();
   ASSERT_GT(full.wall_time_ms, 250.0) << full.wall_time_ms;
   RecordProperty("full_ms", std::to_string(full.wall_time_ms));
@@ -213,7 +213,8 @@ TEST(PlannerTest, DeadlineCutsASlowSolveShort) {
   PlanLimits limits;
   limits.deadline = Clock::now() + std::chrono::milliseconds(60);
   PlanSummary summary;
-  const auto plan = planner.PlanInputs(slow, Eigen::Vector2d(0.1, 0.0), limits, &summary);
+  const auto plan =
+      planner.PlanInputs(slow, Eigen::Vector2d(0.1, 0.0), 0, limits, &summary);
   ASSERT_TRUE(plan.ok()) << plan.status();
   EXPECT_EQ(summary.status, PlanStatus::kTimeLimit);
   // Late by at most one Ipopt iteration and two rollouts (~30 ms), with slack
@@ -228,7 +229,8 @@ TEST(PlannerTest, CancelledBeforeStartIsCancelled) {
   Planner planner(Options(Strategy::kRec));
   PlanLimits limits;
   limits.cancelled = [] { return true; };
-  const auto plan = planner.PlanInputs(model, Eigen::Vector2d(0.1, 0.0), limits, nullptr);
+  const auto plan =
+      planner.PlanInputs(model, Eigen::Vector2d(0.1, 0.0), 0, limits, nullptr);
   EXPECT_EQ(plan.status().code(), absl::StatusCode::kCancelled);
 }
 
@@ -242,7 +244,7 @@ TEST(PlannerTest, CancelledDuringSolveStopsIt) {
   limits.cancelled = [&polls] { return ++polls > 5; };
   PlanSummary summary;
   const auto plan =
-      planner.PlanInputs(model, Eigen::Vector2d(0.1, 0.0), limits, &summary);
+      planner.PlanInputs(model, Eigen::Vector2d(0.1, 0.0), 0, limits, &summary);
   ASSERT_TRUE(plan.ok()) << plan.status();
   EXPECT_EQ(summary.status, PlanStatus::kTimeLimit);
   EXPECT_EQ(summary.starts, 1);
@@ -254,22 +256,23 @@ TEST(PlannerTest, RejectsBadArguments) {
   const AnalyticPendulum model;
   Planner planner(Options(Strategy::kRec));
   EXPECT_EQ(
-      planner.PlanInputs(model, Eigen::Vector3d(0, 0, 0), {}, nullptr).status().code(),
+      planner.PlanInputs(model, Eigen::Vector3d(0, 0, 0), 0, {}, nullptr).status().code(),
       absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(
-      planner.PlanInputs(model, Eigen::Vector2d(NAN, 0), {}, nullptr).status().code(),
+      planner.PlanInputs(model, Eigen::Vector2d(NAN, 0), 0, {}, nullptr).status().code(),
       absl::StatusCode::kInvalidArgument);
   PlanOptions bad = Options(Strategy::kRec);
   bad.input_upper = Eigen::Vector2d(1, 1);
   Planner bad_planner(bad);
-  EXPECT_EQ(
-      bad_planner.PlanInputs(model, Eigen::Vector2d(0, 0), {}, nullptr).status().code(),
-      absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(bad_planner.PlanInputs(model, Eigen::Vector2d(0, 0), 0, {}, nullptr)
+                .status()
+                .code(),
+            absl::StatusCode::kInvalidArgument);
   bad = Options(Strategy::kRec);
   bad.input_lower(0) = 2.0;  // lower > upper
   Planner inverted(bad);
   EXPECT_EQ(
-      inverted.PlanInputs(model, Eigen::Vector2d(0, 0), {}, nullptr).status().code(),
+      inverted.PlanInputs(model, Eigen::Vector2d(0, 0), 0, {}, nullptr).status().code(),
       absl::StatusCode::kInvalidArgument);
 }
 
@@ -282,7 +285,7 @@ std::vector<Plan> Session(const gp::DynamicsPredictor& model, uint64_t seed) {
   std::vector<Plan> plans;
   Eigen::VectorXd x = Eigen::Vector2d(0.05 * static_cast<double>(seed), 0.0);
   for (int k = 0; k < 3; ++k) {
-    auto plan = planner.PlanInputs(model, x, PlanLimits{}, nullptr);
+    auto plan = planner.PlanInputs(model, x, 0, PlanLimits{}, nullptr);
     if (!plan.ok()) return plans;
     x = plan->states.row(1).transpose();
     plans.push_back(*std::move(plan));

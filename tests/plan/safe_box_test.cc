@@ -80,13 +80,13 @@ TEST(SafeBoxTest, EveryModelBasedStrategyKeepsTheBox) {
     PlanSummary free_summary;
     Planner free_planner(o);
     const auto free_plan =
-        free_planner.PlanInputs(model, x0, PlanLimits{}, &free_summary);
+        free_planner.PlanInputs(model, x0, 0, PlanLimits{}, &free_summary);
     ASSERT_TRUE(free_plan.ok()) << free_plan.status();
 
     o.safe_box = box;
     Planner planner(o);
     PlanSummary summary;
-    const auto plan = planner.PlanInputs(model, x0, PlanLimits{}, &summary);
+    const auto plan = planner.PlanInputs(model, x0, 0, PlanLimits{}, &summary);
     ASSERT_TRUE(plan.ok()) << plan.status();
     Eigen::MatrixXd mean, variance;
     Eigen::MatrixXd z(plan->inputs.rows(), 3);
@@ -115,7 +115,7 @@ TEST(SafeBoxTest, InvalidBoxIsRejected) {
   Planner planner(o);
   PlanSummary summary;
   const auto plan =
-      planner.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), PlanLimits{}, &summary);
+      planner.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), 0, PlanLimits{}, &summary);
   EXPECT_EQ(plan.status().code(), absl::StatusCode::kInvalidArgument);
 }
 

@@ -3,7 +3,7 @@
 // deleting a session gives its share back; sessions restored beyond a smaller
 // budget are still served but may not grow.
 
-#include "server/service/memory_budget.h"
+#include "server/session/memory_budget.h"
 
 #include <malloc.h>
 #include <unistd.h>
@@ -26,6 +26,10 @@
 
 namespace excite::service {
 namespace {
+
+using session::DefaultMemoryBudgetBytes;
+using session::MemoryBudget;
+using session::ReturnFreedMemory;
 
 using ::excite::testing::PendulumConfig;
 using ::excite::testing::PendulumFixedKernelConfig;

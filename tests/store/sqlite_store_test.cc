@@ -26,7 +26,7 @@ TEST(SqliteStoreTest, OpenCreatesDirectoryAndDatabase) {
   auto store = SqliteStore::Open(dir);
   ASSERT_TRUE(store.ok()) << store.status();
   EXPECT_TRUE(std::filesystem::exists(dir + "/excite.db"));
-  EXPECT_EQ((*store)->path(), dir + "/excite.db");
+  EXPECT_EQ((*store)->location(), dir + "/excite.db");
 }
 
 void RunSql(const std::string& db_path, const char* sql) {

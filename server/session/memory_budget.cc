@@ -1,4 +1,4 @@
-#include "server/service/memory_budget.h"
+#include "server/session/memory_budget.h"
 
 #include <malloc.h>
 #include <unistd.h>
@@ -11,7 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 
-namespace excite::service {
+namespace excite::session {
 namespace {
 
 // The number in a one-line file (a cgroup limit); 0 if absent, "max" or absurd.
@@ -65,4 +65,4 @@ std::string FormatBytes(int64_t bytes) {
 
 void ReturnFreedMemory() { malloc_trim(0); }
 
-}  // namespace excite::service
+}  // namespace excite::session

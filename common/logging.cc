@@ -1,4 +1,4 @@
-#include "server/service/logging.h"
+#include "common/logging.h"
 
 #include <atomic>
 #include <cstdio>
@@ -11,7 +11,7 @@
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 
-namespace excite::service {
+namespace excite {
 namespace {
 
 std::atomic<int> g_level{static_cast<int>(LogLevel::kInfo)};
@@ -63,4 +63,4 @@ void Log(LogLevel level, absl::string_view message) {
   std::fflush(stderr);
 }
 
-}  // namespace excite::service
+}  // namespace excite

@@ -1,5 +1,5 @@
-#ifndef EXCITE_SERVER_SERVICE_SESSION_H_
-#define EXCITE_SERVER_SERVICE_SESSION_H_
+#ifndef EXCITE_SERVER_SESSION_SESSION_H_
+#define EXCITE_SERVER_SESSION_SESSION_H_
 
 #include <Eigen/Dense>
 #include <atomic>
@@ -17,17 +17,17 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "absl/synchronization/mutex.h"
-#include "excite/v1/session_config.pb.h"
 #include "server/gp/dynamics_model.h"
-#include "server/gp/refit_schedule.h"
 #include "server/plan/planner.h"
-#include "server/service/memory_budget.h"
-#include "server/service/metrics.h"
-#include "server/service/session_labels.h"
+#include "server/session/labels.h"
+#include "server/session/memory_budget.h"
+#include "server/session/metrics_sink.h"
+#include "server/session/session_spec.h"
+#include "server/session/stored_format.h"
 #include "server/store/session_store.h"
 #include "server/store/store_records.h"
 
-namespace excite::service {
+namespace excite::session {
 
 // What Session::AddSamples did: this batch's new and duplicate samples, and the
 // session after it.
@@ -36,6 +36,13 @@ struct AddResult {
   int64_t duplicates = 0;
   int64_t sample_count = 0;
   int64_t model_version = 0;
+};
+
+// Transitions as the model takes them, one row per sample.
+struct TransitionRows {
+  Eigen::MatrixXd states;
+  Eigen::MatrixXd inputs;
+  Eigen::MatrixXd next_states;
 };
 
 // One Session::Predict: a row per point, a column per state dimension.
@@ -77,7 +84,9 @@ struct SessionSnapshot {
 // Everything a session reports: what GetSession and ListSessions answer.
 struct SessionDescription {
   std::string id;
-  v1::SessionConfig config;  // empty if the stored config does not parse
+  // The config's stored bytes (SessionSpec::config); in a session set aside
+  // because they do not parse, those bytes as stored.
+  std::string config;
   std::string display_name;
   std::map<std::string, std::string> labels;
   int64_t created_unix_ms = 0;  // 0: unknown
@@ -90,9 +99,9 @@ struct StoredSession {
   std::vector<store::SampleRecord> samples;  // in sequence order
 };
 
-// One session: its validated config, GP dynamics model and planner. It speaks in
-// engine types (Eigen, store records, plan summaries); the service translates
-// the wire's messages and its status codes.
+// One session: its spec, GP dynamics model and planner. It speaks in engine
+// types (Eigen, store records, plan summaries, SessionSpec); the API layer
+// translates the wire's messages and its status codes.
 //
 // Thread-safety: all methods are thread-safe. Calls that touch the model
 // (AddSamples, Predict, PlanInputs, Export, Delete) are serialised per session;
@@ -118,13 +127,14 @@ class Session {
     int64_t created_unix_ms = 0;  // 0: unknown
   };
 
-  // A new, empty session. `config` must have passed ValidateSessionConfig and
-  // `metadata` ValidateDisplayNameAndLabels. `store` must outlive the session;
-  // its writes carry `fence`, the lease this replica holds on the session (0 in
-  // an exclusive store). Does not write the store.
-  static absl::StatusOr<std::shared_ptr<Session>> Create(std::string id,
-                                                         v1::SessionConfig config,
+  // A new, empty session. `spec` comes from a validated config and `metadata`
+  // was validated by the API layer. `format` (how the saved fit is written) and
+  // `store` must outlive the session; its writes carry `fence`, the lease this
+  // replica holds on the session (0 in an exclusive store). Does not write the
+  // store.
+  static absl::StatusOr<std::shared_ptr<Session>> Create(std::string id, SessionSpec spec,
                                                          Metadata metadata,
+                                                         const StoredFormat* format,
                                                          store::SessionStore* store,
                                                          int64_t fence = 0);
 
@@ -142,15 +152,17 @@ class Session {
   // `unreadable` not OK (DATA_LOSS saying which rows the caller could not read
   // from the store), or a stored config that does not parse, also sets the
   // session aside; `samples` are then the rows that could be read.
+  // The record's config and fit are read with `format`.
   static absl::StatusOr<std::shared_ptr<Session>> Restore(
       const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
-      store::SessionStore* store, int64_t fence = 0,
+      const StoredFormat* format, store::SessionStore* store, int64_t fence = 0,
       absl::Status unreadable = absl::OkStatus());
 
   // What Describe() of the session restored from `listing` would report before
   // its first call: config, metadata, counts, model version as Restore
   // computes it, and the saved hyperparameters (without log likelihoods).
-  static SessionDescription DescribeStored(const store::SessionListing& listing);
+  static SessionDescription DescribeStored(const store::SessionListing& listing,
+                                           const StoredFormat& format);
 
   // Gives back what the session holds of its memory budget.
   ~Session();
@@ -160,7 +172,8 @@ class Session {
   const std::string& id() const { return id_; }
   // "sessions/{id}".
   const std::string& name() const { return name_; }
-  const v1::SessionConfig& config() const { return config_; }
+  // Dimensions 0 in a session set aside because its config does not parse.
+  const SessionSpec& spec() const { return spec_; }
   const Metadata& metadata() const { return metadata_; }
   const Labels& labels() const { return metadata_.labels; }
   int64_t fence() const { return fence_; }
@@ -177,7 +190,7 @@ class Session {
   bool IdleFor(std::chrono::nanoseconds duration) const;
   // Where refit and store-write timings go (nullptr: nowhere, the default). Call
   // before the session is shared; `metrics` must outlive it.
-  void AttachMetrics(Metrics* metrics) { metrics_ = metrics; }
+  void AttachMetrics(MetricsSink* metrics) { metrics_ = metrics; }
 
   // Counts this session's estimated memory in `budget` from now on (nullptr: no
   // budget); the caller has already taken `reserved` bytes of it. AddSamples
@@ -198,7 +211,7 @@ class Session {
   SessionDescription Describe() const;
 
   // One batch of measured transitions (shapes and values already validated):
-  // checks that the model can take it (INVALID_ARGUMENT naming "transitions",
+  // checks that the model can take it (INVALID_ARGUMENT "transitions: ...",
   // nothing stored, if not), stores it durably (one transaction), then adds the
   // newly stored samples to the GP. The result counts this batch only. NOT_FOUND
   // if the session was deleted, RESOURCE_EXHAUSTED (nothing stored) if the
@@ -241,9 +254,9 @@ class Session {
   absl::Status Delete();
 
  private:
-  Session(std::string id, v1::SessionConfig config, Metadata metadata,
-          std::optional<gp::DynamicsModel> model, store::SessionStore* store,
-          int64_t fence);
+  Session(std::string id, SessionSpec spec, Metadata metadata,
+          std::optional<gp::DynamicsModel> model, const StoredFormat* format,
+          store::SessionStore* store, int64_t fence);
   // Counts one call from construction to destruction (IdleFor).
   class CallScope {
    public:
@@ -259,9 +272,9 @@ class Session {
   // A damaged session (see Restore): no model, every model call answers `damage`
   // as DATA_LOSS.
   static std::shared_ptr<Session> SetAside(
-      const store::SessionRecord& record, v1::SessionConfig config,
+      const store::SessionRecord& record, SessionSpec spec,
       const std::vector<store::SampleRecord>& samples, absl::Status damage,
-      store::SessionStore* store, int64_t fence);
+      const StoredFormat* format, store::SessionStore* store, int64_t fence);
   // A store write's failure as the caller gets it; UNAVAILABLE from a shared
   // store (the lease lost, or an outcome unknown) also makes the session stale.
   absl::Status StoreWriteFailed(const absl::Status& status, absl::string_view what);
@@ -272,7 +285,7 @@ class Session {
   // INVALID_ARGUMENT unless the model can add `batch` (GP DynamicsModel::
   // CheckSamples): checked before anything is stored, so that no stored sample
   // can leave a model that cannot answer.
-  absl::Status CheckModelAccepts(const std::vector<store::SampleRecord>& batch)
+  absl::Status CheckModelAccepts(const TransitionRows& rows)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // FAILED_PRECONDITION before min_samples, then the lazy refit, stopped early
   // (DEADLINE_EXCEEDED / CANCELLED) by `deadline` or `cancelled`.
@@ -287,11 +300,12 @@ class Session {
 
   const std::string id_;
   const std::string name_;
-  const v1::SessionConfig config_;
+  const SessionSpec spec_;
   const Metadata metadata_;
+  const StoredFormat* const format_;
   store::SessionStore* const store_;
   const int64_t fence_;
-  Metrics* metrics_ = nullptr;
+  MetricsSink* metrics_ = nullptr;
   MemoryBudget* budget_ = nullptr;
 
   absl::Mutex mu_;
@@ -320,6 +334,6 @@ class Session {
   absl::Status damage_ ABSL_GUARDED_BY(snapshot_mu_);  // damaged_, readable without mu_
 };
 
-}  // namespace excite::service
+}  // namespace excite::session
 
-#endif  // EXCITE_SERVER_SERVICE_SESSION_H_
+#endif  // EXCITE_SERVER_SESSION_SESSION_H_

@@ -1,10 +1,10 @@
-#ifndef EXCITE_SERVER_SERVICE_LOGGING_H_
-#define EXCITE_SERVER_SERVICE_LOGGING_H_
+#ifndef EXCITE_COMMON_LOGGING_H_
+#define EXCITE_COMMON_LOGGING_H_
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 
-namespace excite::service {
+namespace excite {
 
 // A tiny leveled logger writing one line per message to stderr (Abseil 20220623
 // has no absl/log). Thread-safe.
@@ -22,6 +22,6 @@ absl::StatusOr<LogLevel> ParseLogLevel(absl::string_view name);
 // Writes "<UTC time> <D|I|W|E> <message>\n" if `level` is enabled.
 void Log(LogLevel level, absl::string_view message);
 
-}  // namespace excite::service
+}  // namespace excite
 
-#endif  // EXCITE_SERVER_SERVICE_LOGGING_H_
+#endif  // EXCITE_COMMON_LOGGING_H_

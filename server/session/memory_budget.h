@@ -1,5 +1,5 @@
-#ifndef EXCITE_SERVER_SERVICE_MEMORY_BUDGET_H_
-#define EXCITE_SERVER_SERVICE_MEMORY_BUDGET_H_
+#ifndef EXCITE_SERVER_SESSION_MEMORY_BUDGET_H_
+#define EXCITE_SERVER_SESSION_MEMORY_BUDGET_H_
 
 #include <atomic>
 #include <cstdint>
@@ -8,7 +8,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/string_view.h"
 
-namespace excite::service {
+namespace excite::session {
 
 // The server's memory budget: the sum of every session's estimated peak memory
 // (Session::EstimatedBytes) against one limit, so that a request that would take
@@ -56,6 +56,6 @@ std::string FormatBytes(int64_t bytes);
 // estimates. Costs a walk over the arenas' free blocks. Thread-safe.
 void ReturnFreedMemory();
 
-}  // namespace excite::service
+}  // namespace excite::session
 
-#endif  // EXCITE_SERVER_SERVICE_MEMORY_BUDGET_H_
+#endif  // EXCITE_SERVER_SESSION_MEMORY_BUDGET_H_

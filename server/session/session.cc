@@ -1,18 +1,15 @@
-#include "server/service/session.h"
+#include "server/session/session.h"
 
 #include <algorithm>
 #include <exception>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "server/service/field_violation.h"
-#include "server/service/logging.h"
-#include "server/service/memory_budget.h"
-#include "server/service/resource_name.h"
-#include "server/service/session_options.h"
-#include "server/service/store_conversion.h"
+#include "common/logging.h"
+#include "server/session/memory_budget.h"
+#include "server/session/session_name.h"
 
-namespace excite::service {
+namespace excite::session {
 namespace {
 
 // Entries of one Predict chunk's cross-covariance matrix (points x samples):
@@ -24,32 +21,36 @@ constexpr Eigen::Index kPredictChunkEntries = Eigen::Index{1} << 21;
 // adds its workspace, which grows with the horizon.
 constexpr int64_t kSessionBytes = int64_t{32} << 10;
 
-// The transitions the model takes, one row per sample.
-struct TransitionRows {
-  Eigen::MatrixXd states;
-  Eigen::MatrixXd inputs;
-  Eigen::MatrixXd next_states;
-};
-
-// The samples for which `keep` is true (all if `keep` is null), which must have
-// state_dim `dx` and input_dim `du`, as rows.
-TransitionRows ToRows(const std::vector<store::SampleRecord>& samples, int dx, int du,
-                      const std::vector<bool>* keep = nullptr) {
-  Eigen::Index n = 0;
-  for (size_t i = 0; i < samples.size(); ++i) n += keep == nullptr || (*keep)[i];
+// The samples, which must have state_dim `dx` and input_dim `du`, as rows.
+TransitionRows ToRows(const std::vector<store::SampleRecord>& samples, int dx, int du) {
+  const auto n = static_cast<Eigen::Index>(samples.size());
   TransitionRows rows{Eigen::MatrixXd(n, dx), Eigen::MatrixXd(n, du),
                       Eigen::MatrixXd(n, dx)};
-  Eigen::Index row = 0;
-  for (size_t i = 0; i < samples.size(); ++i) {
-    if (keep != nullptr && !(*keep)[i]) continue;
-    const store::SampleRecord& s = samples[i];
-    rows.states.row(row) = Eigen::Map<const Eigen::RowVectorXd>(s.state.data(), dx);
-    rows.inputs.row(row) = Eigen::Map<const Eigen::RowVectorXd>(s.input.data(), du);
-    rows.next_states.row(row) =
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const store::SampleRecord& s = samples[static_cast<size_t>(i)];
+    rows.states.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.state.data(), dx);
+    rows.inputs.row(i) = Eigen::Map<const Eigen::RowVectorXd>(s.input.data(), du);
+    rows.next_states.row(i) =
         Eigen::Map<const Eigen::RowVectorXd>(s.next_state.data(), dx);
-    ++row;
   }
   return rows;
+}
+
+// The rows for which `keep` is true (`count` of them).
+TransitionRows Kept(const TransitionRows& rows, const std::vector<bool>& keep,
+                    Eigen::Index count) {
+  TransitionRows kept{Eigen::MatrixXd(count, rows.states.cols()),
+                      Eigen::MatrixXd(count, rows.inputs.cols()),
+                      Eigen::MatrixXd(count, rows.next_states.cols())};
+  Eigen::Index row = 0;
+  for (Eigen::Index i = 0; i < rows.states.rows(); ++i) {
+    if (!keep[static_cast<size_t>(i)]) continue;
+    kept.states.row(row) = rows.states.row(i);
+    kept.inputs.row(row) = rows.inputs.row(i);
+    kept.next_states.row(row) = rows.next_states.row(i);
+    ++row;
+  }
+  return kept;
 }
 
 double SecondsSince(Session::Clock::time_point start) {
@@ -67,17 +68,18 @@ absl::Status InternalFromException(absl::string_view what, const std::exception&
 
 }  // namespace
 
-Session::Session(std::string id, v1::SessionConfig config, Metadata metadata,
-                 std::optional<gp::DynamicsModel> model, store::SessionStore* store,
-                 int64_t fence)
+Session::Session(std::string id, SessionSpec spec, Metadata metadata,
+                 std::optional<gp::DynamicsModel> model, const StoredFormat* format,
+                 store::SessionStore* store, int64_t fence)
     : id_(std::move(id)),
       name_(SessionName(id_)),
-      config_(std::move(config)),
+      spec_(std::move(spec)),
       metadata_(std::move(metadata)),
+      format_(format),
       store_(store),
       fence_(fence),
       model_(std::move(model)),
-      planner_(PlanOptionsFromConfig(config_)) {}
+      planner_(spec_.plan) {}
 
 Session::~Session() {
   absl::MutexLock lock(&mu_);
@@ -116,21 +118,20 @@ Session::Metadata Session::MetadataOf(const store::SessionRecord& record) {
   return {record.display_name, record.labels, record.created_unix_ms};
 }
 
-absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
-                                                         v1::SessionConfig config,
+absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id, SessionSpec spec,
                                                          Metadata metadata,
+                                                         const StoredFormat* format,
                                                          store::SessionStore* store,
                                                          int64_t fence) {
   try {
-    absl::StatusOr<gp::DynamicsModel> model =
-        gp::DynamicsModel::Create(ModelOptionsFromConfig(config));
+    absl::StatusOr<gp::DynamicsModel> model = gp::DynamicsModel::Create(spec.model);
     if (!model.ok()) {
       return absl::Status(model.status().code(),
                           absl::StrCat("config: ", model.status().message()));
     }
-    std::shared_ptr<Session> session(new Session(std::move(id), std::move(config),
+    std::shared_ptr<Session> session(new Session(std::move(id), std::move(spec),
                                                  std::move(metadata), *std::move(model),
-                                                 store, fence));
+                                                 format, store, fence));
     absl::MutexLock lock(&session->mu_);
     session->PublishSnapshot();
     return session;
@@ -141,24 +142,27 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id,
 
 absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
     const store::SessionRecord& record, const std::vector<store::SampleRecord>& samples,
-    store::SessionStore* store, int64_t fence, absl::Status unreadable) {
-  v1::SessionConfig config;
-  if (!config.ParseFromString(record.config)) {
-    config.Clear();
-    return SetAside(record, std::move(config), samples,
-                    absl::DataLossError("its stored config does not parse"), store,
-                    fence);
+    const StoredFormat* format, store::SessionStore* store, int64_t fence,
+    absl::Status unreadable) {
+  absl::StatusOr<SessionSpec> decoded = format->DecodeConfig(record.config);
+  if (!decoded.ok()) {
+    SessionSpec unknown;
+    unknown.config = record.config;
+    return SetAside(record, std::move(unknown), samples,
+                    absl::DataLossError("its stored config does not parse"), format,
+                    store, fence);
   }
+  SessionSpec config = *std::move(decoded);
   if (!unreadable.ok()) {
-    return SetAside(record, std::move(config), samples, std::move(unreadable), store,
-                    fence);
+    return SetAside(record, std::move(config), samples, std::move(unreadable), format,
+                    store, fence);
   }
   try {
-    gp::DynamicsModelOptions options = ModelOptionsFromConfig(config);
-    if (config.refit().never() && config.kernel().fit()) {
-      if (std::optional<EngineFit> saved =
-              DecodeSavedFit(record.hyperparameters, config.state_dim(),
-                             config.state_dim() + config.input_dim())) {
+    gp::DynamicsModelOptions options = config.model;
+    if (config.refit.never && config.refit.fit_kernel) {
+      if (std::optional<SavedFit> saved =
+              format->DecodeFit(record.hyperparameters, config.state_dim,
+                                config.state_dim + config.input_dim)) {
         options.fit_kernel = false;
         options.fit_noise = false;
         options.fixed = std::move(saved->hyperparameters);
@@ -171,8 +175,8 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
       return absl::Status(model.status().code(), absl::StrCat("session ", record.id, ": ",
                                                               model.status().message()));
     }
-    const int dx = config.state_dim();
-    const int du = config.input_dim();
+    const int dx = config.state_dim;
+    const int du = config.input_dim;
     const Eigen::Index n = static_cast<Eigen::Index>(samples.size());
     int64_t last_sequence = -1;
     absl::Status damaged;
@@ -196,16 +200,16 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
       }
     }
     if (!damaged.ok()) {
-      return SetAside(record, std::move(config), samples, std::move(damaged), store,
-                      fence);
+      return SetAside(record, std::move(config), samples, std::move(damaged), format,
+                      store, fence);
     }
     if (options_fit_kernel) {
       // The model is rebuilt with the last saved fit while it is current, and
       // the next refit starts from it (a cache: unusable bytes just mean a cold
       // start).
-      if (std::optional<EngineFit> saved =
-              DecodeSavedFit(record.hyperparameters, config.state_dim(),
-                             config.state_dim() + config.input_dim())) {
+      if (std::optional<SavedFit> saved =
+              format->DecodeFit(record.hyperparameters, config.state_dim,
+                                config.state_dim + config.input_dim)) {
         const int fitted = static_cast<int>(std::min<int64_t>(saved->fitted_samples, n));
         if (absl::Status s =
                 model->SeedWarmStart(std::move(saved->hyperparameters), fitted);
@@ -218,7 +222,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
     }
     std::shared_ptr<Session> session(new Session(record.id, std::move(config),
                                                  MetadataOf(record), *std::move(model),
-                                                 store, fence));
+                                                 format, store, fence));
     absl::MutexLock lock(&session->mu_);
     session->sample_count_ = n;
     session->last_sequence_ = last_sequence;
@@ -231,9 +235,9 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
 }
 
 std::shared_ptr<Session> Session::SetAside(
-    const store::SessionRecord& record, v1::SessionConfig config,
+    const store::SessionRecord& record, SessionSpec spec,
     const std::vector<store::SampleRecord>& samples, absl::Status damage,
-    store::SessionStore* store, int64_t fence) {
+    const StoredFormat* format, store::SessionStore* store, int64_t fence) {
   // Not fatal: the server serves every other session.
   absl::Status damaged = absl::DataLossError(absl::StrCat(
       "session ", SessionName(record.id), " is damaged: ", damage.message(),
@@ -245,8 +249,9 @@ std::shared_ptr<Session> Session::SetAside(
     last_sequence = std::max(last_sequence, s.sequence);
   }
   const auto n = static_cast<int64_t>(samples.size());
-  std::shared_ptr<Session> session(new Session(
-      record.id, std::move(config), MetadataOf(record), std::nullopt, store, fence));
+  std::shared_ptr<Session> session(new Session(record.id, std::move(spec),
+                                               MetadataOf(record), std::nullopt, format,
+                                               store, fence));
   absl::MutexLock lock(&session->mu_);
   session->damaged_ = std::move(damaged);
   session->sample_count_ = n;
@@ -264,7 +269,7 @@ SessionSnapshot Session::Snapshot() const {
 SessionDescription Session::Describe() const {
   SessionDescription description;
   description.id = id_;
-  description.config = config_;
+  description.config = spec_.config;
   description.display_name = metadata_.display_name;
   description.labels = metadata_.labels;
   description.created_unix_ms = metadata_.created_unix_ms;
@@ -272,11 +277,12 @@ SessionDescription Session::Describe() const {
   return description;
 }
 
-SessionDescription Session::DescribeStored(const store::SessionListing& listing) {
+SessionDescription Session::DescribeStored(const store::SessionListing& listing,
+                                           const StoredFormat& format) {
   const store::SessionRecord& record = listing.record;
   SessionDescription description;
   description.id = record.id;
-  if (!description.config.ParseFromString(record.config)) description.config.Clear();
+  description.config = record.config;
   description.display_name = record.display_name;
   description.labels = record.labels;
   description.created_unix_ms = record.created_unix_ms;
@@ -284,10 +290,13 @@ SessionDescription Session::DescribeStored(const store::SessionListing& listing)
   snapshot.sample_count = listing.sample_count;
   snapshot.last_sequence = listing.last_sequence;
   snapshot.model_version = record.model_version + listing.sample_count;
-  const v1::SessionConfig& config = description.config;
-  if (std::optional<EngineFit> saved =
-          DecodeSavedFit(record.hyperparameters, config.state_dim(),
-                         config.state_dim() + config.input_dim())) {
+  absl::StatusOr<SessionSpec> spec = format.DecodeConfig(record.config);
+  std::optional<SavedFit> saved;
+  if (spec.ok()) {
+    saved = format.DecodeFit(record.hyperparameters, spec->state_dim,
+                             spec->state_dim + spec->input_dim);
+  }
+  if (saved.has_value()) {
     for (gp::Hyperparameters& h : saved->hyperparameters) {
       OutputSnapshot output;
       output.hyperparameters = std::move(h);
@@ -342,23 +351,19 @@ absl::Status Session::CheckUsable() {
   return damaged_;
 }
 
-absl::Status Session::CheckModelAccepts(const std::vector<store::SampleRecord>& batch) {
-  const int dx = config_.state_dim();
-  const int du = config_.input_dim();
-  const TransitionRows rows = ToRows(batch, dx, du);
+absl::Status Session::CheckModelAccepts(const TransitionRows& rows) {
   absl::Status checked = model_->CheckSamples(rows.states, rows.inputs, rows.next_states);
   if (checked.ok()) return checked;
-  return FieldViolationError(
-      "transitions",
-      absl::StrCat("the model of session ", name_,
+  return absl::InvalidArgumentError(
+      absl::StrCat("transitions: the model of session ", name_,
                    " cannot take them (nothing was stored): ", checked.message()));
 }
 
 absl::StatusOr<AddResult> Session::AddSamples(
     const std::vector<store::SampleRecord>& batch, int64_t max_samples) {
   const CallScope call(this);
-  const int dx = config_.state_dim();
-  const int du = config_.input_dim();
+  const int dx = spec_.state_dim;
+  const int du = spec_.input_dim;
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
   AddResult result;
@@ -368,7 +373,9 @@ absl::StatusOr<AddResult> Session::AddSamples(
           "session ", name_, " has ", sample_count_, " samples; ", batch.size(),
           " more would exceed the cap of ", max_samples, " per session"));
     }
-    if (absl::Status s = CheckModelAccepts(batch); !s.ok()) return s;
+    // Converted once: checked before storing, the stored ones added after.
+    TransitionRows rows = ToRows(batch, dx, du);
+    if (absl::Status s = CheckModelAccepts(rows); !s.ok()) return s;
     const int64_t after = sample_count_ + static_cast<int64_t>(batch.size());
     if (budget_ != nullptr) {
       // Taken before storing (nothing is stored if it does not fit), settled to
@@ -399,7 +406,9 @@ absl::StatusOr<AddResult> Session::AddSamples(
         if (inserted->stored[i])
           last_sequence_ = std::max(last_sequence_, batch[i].sequence);
       }
-      const TransitionRows rows = ToRows(batch, dx, du, &inserted->stored);
+      if (n < static_cast<Eigen::Index>(batch.size())) {
+        rows = Kept(rows, inserted->stored, n);  // duplicates are not added again
+      }
       absl::Status added;
       try {
         added = model_->AddSamples(rows.states, rows.inputs, rows.next_states);
@@ -431,20 +440,17 @@ absl::StatusOr<AddResult> Session::AddSamples(
 
 absl::Status Session::EnsureFitted(Clock::time_point deadline,
                                    const std::function<bool()>& cancelled) {
-  const int64_t min_samples = config_.refit().min_samples();
+  const int64_t min_samples = spec_.refit.min_samples;
   if (sample_count_ < min_samples) {
     return absl::FailedPreconditionError(absl::StrCat(
         "session ", name_, " has ", sample_count_, " samples; at least ", min_samples,
         " are needed before Predict/PlanInputs: stream data with AddData first"));
   }
-  const gp::RefitSchedule schedule{config_.refit().every_samples(),
-                                   config_.refit().growth()};
   const bool refit_due =
-      config_.kernel().fit() && !config_.refit().never() &&
-      gp::RefitDue(schedule, model_->sample_count(), model_->samples_since_fit());
+      spec_.refit.refits() && gp::RefitDue(spec_.refit.schedule, model_->sample_count(),
+                                           model_->samples_since_fit());
   if (model_->fitted() && !refit_due) return absl::OkStatus();
-  if (!refit_due && config_.kernel().fit() && !config_.refit().never() &&
-      !model_->hyperparameters().empty()) {
+  if (!refit_due && spec_.refit.refits() && !model_->hyperparameters().empty()) {
     // Restored with a fit that is still current: predict as before the restart.
     const absl::Status rebuilt = model_->Rebuild();
     ReturnFreedMemory();  // the factorisation's n x n temporaries
@@ -484,8 +490,8 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
                      " failed_starts=", summary->failed_starts,
                      " ms=", summary->wall_time_ms, summary->stopped ? " stopped" : ""));
   }
-  const std::string saved = EncodeSavedFit(model_->hyperparameters(),
-                                           sample_count_ - model_->samples_since_fit());
+  const std::string saved = format_->EncodeFit(
+      {model_->hyperparameters(), sample_count_ - model_->samples_since_fit()});
   const Clock::time_point write_start = Clock::now();
   if (absl::Status s = store_->SaveModelState(id_, fence_, saved, model_version_);
       !s.ok()) {
@@ -520,7 +526,7 @@ absl::StatusOr<Prediction> Session::Predict(const Eigen::MatrixXd& z, bool inclu
       !s.ok()) {
     return s;
   }
-  const int dx = config_.state_dim();
+  const int dx = spec_.state_dim;
   const Eigen::Index m = z.rows();
   // Chunks of at most kPredictChunkEntries / n points: the cross-covariances of
   // one chunk (chunk x n per output) bound the call's memory, whatever m is.
@@ -568,10 +574,10 @@ absl::StatusOr<Prediction> Session::Predict(const Eigen::MatrixXd& z, bool inclu
 absl::Status Session::CheckPlanShape(const plan::Plan& plan, bool model_free) const {
   const Eigen::Index horizon = plan.inputs.rows();
   const Eigen::Index predicted = model_free ? 0 : horizon;  // model-free: no predictions
-  if (horizon < 1 || plan.inputs.cols() != config_.input_dim() ||
+  if (horizon < 1 || plan.inputs.cols() != spec_.input_dim ||
       plan.states.rows() != predicted || plan.variances.rows() != predicted ||
-      (predicted > 0 && (plan.states.cols() != config_.state_dim() ||
-                         plan.variances.cols() != config_.state_dim()))) {
+      (predicted > 0 && (plan.states.cols() != spec_.state_dim ||
+                         plan.variances.cols() != spec_.state_dim))) {
     return absl::InternalError(absl::StrCat("planning for session ", name_,
                                             " returned a plan of the wrong shape"));
   }
@@ -666,9 +672,9 @@ void Session::AttachMemoryBudget(MemoryBudget* budget, int64_t reserved) {
 }
 
 int64_t Session::EstimatedBytes(int64_t samples) const {
-  const gp::DynamicsModelOptions options = ModelOptionsFromConfig(config_);
+  const gp::DynamicsModelOptions& options = spec_.model;
   return kSessionBytes + gp::DynamicsModel::PeakBytes(
-                             samples, config_.state_dim(), config_.input_dim(),
+                             samples, spec_.state_dim, spec_.input_dim,
                              options.fit_threads, options.sparse_above,
                              options.sparse.max_inducing, options.sparse_fit_samples);
 }
@@ -680,4 +686,4 @@ void Session::SettleBudget() {
   reserved_bytes_ = held;
 }
 
-}  // namespace excite::service
+}  // namespace excite::session

@@ -1,4 +1,4 @@
-#include "server/service/session_registry.h"
+#include "server/session/session_registry.h"
 
 #include <algorithm>
 #include <utility>
@@ -7,13 +7,11 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
-#include "server/service/config_validation.h"
-#include "server/service/field_violation.h"
-#include "server/service/logging.h"
-#include "server/service/memory_budget.h"
-#include "server/service/resource_name.h"
+#include "common/logging.h"
+#include "server/session/memory_budget.h"
+#include "server/session/session_name.h"
 
-namespace excite::service {
+namespace excite::session {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -120,7 +118,8 @@ absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::Restore(const std::str
   absl::StatusOr<std::vector<store::SampleRecord>> samples =
       store_->LoadSamples(id, &unreadable);
   if (!samples.ok()) return samples.status();
-  return Session::Restore(*record, *samples, store_, fence, UnreadableRows(unreadable));
+  return Session::Restore(*record, *samples, options_.format, store_, fence,
+                          UnreadableRows(unreadable));
 }
 
 void SessionRegistry::Register(const std::shared_ptr<Session>& session, int64_t bytes) {
@@ -172,23 +171,17 @@ absl::StatusOr<std::string> SessionRegistry::NewSessionId(const std::string& ses
   return id;
 }
 
-absl::StatusOr<SessionDescription> SessionRegistry::Create(
-    const std::string& session_id, const v1::SessionConfig& config,
-    const std::string& display_name,
-    const google::protobuf::Map<std::string, std::string>& labels) {
-  absl::StatusOr<v1::SessionConfig> validated = ValidatedSessionConfig(config, "config");
-  Violations problems;
-  problems.Add(CheckOptionalSessionId(session_id, "session_id"));
-  problems.Add(validated.status());
-  problems.Add(ValidateDisplayNameAndLabels(display_name, labels));
-  if (absl::Status s = problems.Result(); !s.ok()) return s;
-  Session::Metadata metadata{display_name, Labels(labels.begin(), labels.end()),
+absl::StatusOr<SessionDescription> SessionRegistry::Create(const std::string& session_id,
+                                                           SessionSpec spec,
+                                                           std::string display_name,
+                                                           Labels labels) {
+  Session::Metadata metadata{std::move(display_name), std::move(labels),
                              absl::ToUnixMillis(absl::Now())};
 
   absl::StatusOr<std::string> id = NewSessionId(session_id);
   if (!id.ok()) return id.status();
   absl::StatusOr<std::shared_ptr<Session>> session =
-      Session::Create(*id, *validated, metadata, store_);
+      Session::Create(*id, std::move(spec), metadata, options_.format, store_);
   if (!session.ok()) return session.status();
   // A shared store's new session is loaded by the replica its calls reach.
   const int64_t bytes = shared_ ? 0 : (*session)->EstimatedBytes(0);
@@ -198,7 +191,7 @@ absl::StatusOr<SessionDescription> SessionRegistry::Create(
   }
   store::SessionRecord record;
   record.id = *id;
-  record.config = validated->SerializeAsString();
+  record.config = (*session)->spec().config;
   record.created_unix_ms = metadata.created_unix_ms;
   record.display_name = metadata.display_name;
   record.labels = metadata.labels;
@@ -220,7 +213,7 @@ absl::StatusOr<SessionDescription> SessionRegistry::Import(
   // Built in memory first (as after a restart: the hyperparameters seed the first
   // refit), stored second: a failure of either leaves nothing behind.
   absl::StatusOr<std::shared_ptr<Session>> session =
-      Session::Restore(record, samples, store_);
+      Session::Restore(record, samples, options_.format, store_);
   if (!session.ok()) return session.status();
   const int64_t bytes =
       shared_ ? 0 : (*session)->EstimatedBytes(static_cast<int64_t>(samples.size()));
@@ -457,7 +450,7 @@ absl::StatusOr<SessionDescription> SessionRegistry::Describe(const std::string& 
   }
   absl::StatusOr<store::SessionListing> listing = store_->ListSession(id);
   if (!listing.ok()) return listing.status();
-  return Session::DescribeStored(*listing);
+  return Session::DescribeStored(*listing, *options_.format);
 }
 
 absl::Status SessionRegistry::Delete(const std::string& id) {
@@ -477,7 +470,7 @@ absl::Status SessionRegistry::Delete(const std::string& id) {
 
 absl::StatusOr<SessionRegistry::Page> SessionRegistry::List(int32_t page_size,
                                                             const std::string& page_token,
-                                                            const LabelFilter& filter) {
+                                                            const LabelMatcher& matches) {
   if (page_size < 0) {
     return absl::InvalidArgumentError(
         absl::StrCat("page_size: must be >= 0 (0 for the default ", kDefaultPageSize,
@@ -504,7 +497,7 @@ absl::StatusOr<SessionRegistry::Page> SessionRegistry::List(int32_t page_size,
         break;
       }
       after = listing.record.id;
-      if (!filter.Matches(listing.record.labels)) continue;
+      if (matches && !matches(listing.record.labels)) continue;
       std::shared_ptr<Session> live;
       {
         absl::MutexLock lock(&mu_);
@@ -514,8 +507,9 @@ absl::StatusOr<SessionRegistry::Page> SessionRegistry::List(int32_t page_size,
           live = it->second.session;
         }
       }
-      page.sessions.push_back(live != nullptr ? live->Describe()
-                                              : Session::DescribeStored(listing));
+      page.sessions.push_back(live != nullptr
+                                  ? live->Describe()
+                                  : Session::DescribeStored(listing, *options_.format));
     }
     if (!more && static_cast<int32_t>(page.sessions.size()) == page_size) {
       absl::StatusOr<std::vector<store::SessionListing>> next =
@@ -551,4 +545,4 @@ int64_t SessionRegistry::loaded_samples() const {
   return total;
 }
 
-}  // namespace excite::service
+}  // namespace excite::session

@@ -1,8 +1,9 @@
-#ifndef EXCITE_SERVER_SERVICE_SESSION_REGISTRY_H_
-#define EXCITE_SERVER_SERVICE_SESSION_REGISTRY_H_
+#ifndef EXCITE_SERVER_SESSION_SESSION_REGISTRY_H_
+#define EXCITE_SERVER_SESSION_SESSION_REGISTRY_H_
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -16,19 +17,22 @@
 #include "absl/strings/string_view.h"
 #include "absl/synchronization/mutex.h"
 #include "absl/synchronization/notification.h"
-#include "excite/v1/session_config.pb.h"
-#include "server/service/memory_budget.h"
-#include "server/service/session.h"
+#include "server/session/memory_budget.h"
+#include "server/session/metrics_sink.h"
+#include "server/session/session.h"
+#include "server/session/stored_format.h"
 #include "server/store/session_store.h"
 
-namespace excite::service {
+namespace excite::session {
 
 struct RegistryOptions {
   // Cap on the sessions the store holds (in a shared store a soft cap: replicas
   // creating at once may pass it by one each).
   int64_t max_sessions = 10000;
+  // How the stored config and fit bytes are read and written (required).
+  const StoredFormat* format = nullptr;
   // Nullable: no timings recorded / no memory budget. Must outlive the registry.
-  Metrics* metrics = nullptr;
+  MetricsSink* metrics = nullptr;
   MemoryBudget* budget = nullptr;
   // Shared stores only. The lease's duration (the store's); leases are renewed
   // every third of it and trusted here until a sixth of it before they end.
@@ -65,14 +69,14 @@ class SessionRegistry {
   SessionRegistry(const SessionRegistry&) = delete;
   SessionRegistry& operator=(const SessionRegistry&) = delete;
 
-  // Creates and stores a session, created now. `session_id` empty: a fresh id is
-  // generated. INVALID_ARGUMENT for a malformed id, config (field path under
-  // "config"), display name or labels, with every problem at once; ALREADY_EXISTS
-  // for a taken id, RESOURCE_EXHAUSTED beyond max_sessions or the memory budget.
-  absl::StatusOr<SessionDescription> Create(
-      const std::string& session_id, const v1::SessionConfig& config,
-      const std::string& display_name = "",
-      const google::protobuf::Map<std::string, std::string>& labels = {});
+  // Creates and stores a session, created now, from a validated spec, display
+  // name and labels (the API layer validates them). `session_id` empty: a fresh
+  // id is generated. ALREADY_EXISTS for a taken id, RESOURCE_EXHAUSTED beyond
+  // max_sessions or the memory budget.
+  absl::StatusOr<SessionDescription> Create(const std::string& session_id,
+                                            SessionSpec spec,
+                                            std::string display_name = "",
+                                            Labels labels = {});
 
   // Creates and stores a session with all its samples and saved hyperparameters
   // (`record` as from a validated SessionArchive; its id and model_version are
@@ -103,13 +107,15 @@ class SessionRegistry {
     std::string next_page_token;  // empty on the last page
   };
   // Sessions in id order after `page_token` (an opaque token from a previous
-  // page) that `filter` matches, as the store lists them: sessions served here
+  // page) that `matches`, as the store lists them: sessions served here
   // are described live, the others as stored (Session::DescribeStored).
   // page_size: 0 means 50, larger than 1000 means 1000; negative is
   // INVALID_ARGUMENT, as is a token this server did not produce. Every page but
   // the last holds page_size sessions; the last may be empty.
+  // `matches` (null: every session) selects by labels.
+  using LabelMatcher = std::function<bool(const Labels&)>;
   absl::StatusOr<Page> List(int32_t page_size, const std::string& page_token,
-                            const LabelFilter& filter = LabelFilter());
+                            const LabelMatcher& matches = nullptr);
 
   // Sessions loaded here, and their samples.
   int64_t size() const;
@@ -171,6 +177,6 @@ class SessionRegistry {
   std::thread renewer_;
 };
 
-}  // namespace excite::service
+}  // namespace excite::session
 
-#endif  // EXCITE_SERVER_SERVICE_SESSION_REGISTRY_H_
+#endif  // EXCITE_SERVER_SESSION_SESSION_REGISTRY_H_
