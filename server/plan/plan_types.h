@@ -7,6 +7,7 @@
 #include <functional>
 #include <optional>
 
+#include "absl/status/status.h"
 #include "server/plan/safe_box.h"
 #include "server/plan/strategy.h"
 
@@ -59,6 +60,13 @@ struct PlanOptions {
   // State constraints on the planned mean trajectory of every model-based
   // strategy (inactive by default).
   SafeBox safe_box;
+
+  // INVALID_ARGUMENT unless the options suit a model of these dimensions: input
+  // bounds (input_dim finite, lower <= upper), horizon >= 1 (unless the
+  // strategy fixes it), iterations and restarts >= 0, tolerance > 0, the safe
+  // box, the signal's parameters and the state bounds a strategy needs. The
+  // Planner calls it once per model shape (Ceres-style: options in, checked once).
+  absl::Status Validate(int state_dim, int input_dim) const;
 };
 
 // Limits of one call: the best plan so far is returned when one is hit.

@@ -24,31 +24,6 @@ double Uniform01(std::mt19937_64& rng) {
   return static_cast<double>(rng() >> 11) * 0x1.0p-53;
 }
 
-absl::Status ValidateSignal(const SignalOptions& signal, Strategy strategy) {
-  switch (strategy) {
-    case Strategy::kPrbs:
-      if (signal.prbs_min_hold < 1) {
-        return absl::InvalidArgumentError("prbs_min_hold must be >= 1");
-      }
-      break;
-    case Strategy::kChirp:
-      if (signal.chirp_period < 1 || !std::isfinite(signal.chirp_start_frequency) ||
-          !std::isfinite(signal.chirp_end_frequency)) {
-        return absl::InvalidArgumentError(
-            "chirp_period must be >= 1 and the chirp frequencies finite");
-      }
-      break;
-    case Strategy::kRandom:
-      if (signal.random_hold < 1) {
-        return absl::InvalidArgumentError("random_hold must be >= 1");
-      }
-      break;
-    default:
-      break;
-  }
-  return absl::OkStatus();
-}
-
 }  // namespace
 
 Planner::Planner(PlanOptions options) : options_(std::move(options)) {}
@@ -65,50 +40,14 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
         absl::StrCat("x0 has ", x0.size(), " entries, the model's state has ", dx));
   }
   if (!x0.allFinite()) return absl::InvalidArgumentError("x0 is not finite");
-  const Eigen::VectorXd& lower = options_.input_lower;
-  const Eigen::VectorXd& upper = options_.input_upper;
-  if (lower.size() != du || upper.size() != du) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("input bounds have ", lower.size(), " and ", upper.size(),
-                     " entries, the model's input has ", du));
-  }
-  if (!lower.allFinite() || !upper.allFinite() || (lower.array() > upper.array()).any()) {
-    return absl::InvalidArgumentError("input bounds must be finite with lower <= upper");
-  }
-  const StrategyInfo& strategy = InfoOf(options_.strategy);
-  if (strategy.fixed_horizon == 0 && options_.horizon < 1) {
-    return absl::InvalidArgumentError("horizon must be >= 1");
-  }
-  if (options_.max_iterations < 0 || options_.restarts < 0 ||
-      !(options_.tolerance > 0.0)) {
-    return absl::InvalidArgumentError(
-        "max_iterations and restarts must be >= 0, tolerance > 0");
-  }
   if (time_index < 0) return absl::InvalidArgumentError("time_index must be >= 0");
-  const SafeBox& box = options_.safe_box;
-  if (box.active() &&
-      (box.lower.size() != dx || box.upper.size() != dx || !box.lower.allFinite() ||
-       !box.upper.allFinite() || !(box.lower.array() < box.upper.array()).all() ||
-       !(box.margin >= 0.0) || !std::isfinite(box.margin))) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("the safe box needs state_dim (", dx,
-                     ") finite intervals with lower < upper and a finite margin >= 0"));
+  // The options, checked once per model shape (PlanOptions::Validate).
+  if (!validated_for_.has_value() || *validated_for_ != std::make_pair(dx, du)) {
+    options_status_ = options_.Validate(dx, du);
+    validated_for_ = std::make_pair(dx, du);
   }
-  if (absl::Status s = ValidateSignal(options_.signal, options_.strategy); !s.ok()) {
-    return s;
-  }
-  if (strategy.needs_state_bounds) {
-    const Eigen::VectorXd& state_lower = options_.state_lower;
-    const Eigen::VectorXd& state_upper = options_.state_upper;
-    if (state_lower.size() != dx || state_upper.size() != dx ||
-        !state_lower.allFinite() || !state_upper.allFinite() ||
-        !(state_lower.array() < state_upper.array()).all()) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(strategy.name, " needs state bounds: state_dim (", dx,
-                       ") finite intervals with lower < upper, got ", state_lower.size(),
-                       " and ", state_upper.size(), " entries"));
-    }
-  }
+  if (!options_status_.ok()) return options_status_;
+  const StrategyInfo& strategy = InfoOf(options_.strategy);
   const auto cancelled = [&limits] { return limits.cancelled && limits.cancelled(); };
   const auto past_deadline = [&limits] {
     return limits.deadline.has_value() && Clock::now() >= *limits.deadline;

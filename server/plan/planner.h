@@ -6,6 +6,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <utility>
 
 #include "absl/status/statusor.h"
 #include "server/gp/dynamics_predictor.h"
@@ -66,6 +67,10 @@ class Planner {
   Plan PlanSignal(const StrategyInfo& strategy, int state_dim, int64_t time_index) const;
 
   PlanOptions options_;
+  // options_.Validate() for the model shape (state_dim, input_dim) it was last
+  // checked for.
+  std::optional<std::pair<int, int>> validated_for_;
+  absl::Status options_status_;
   std::optional<Plan> previous_;
   // roi's reference set (a function of the options only; made at the first plan).
   Eigen::MatrixXd reference_;

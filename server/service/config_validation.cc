@@ -11,6 +11,7 @@
 #include "server/gp/hyperparameter_fit.h"
 #include "server/gp/sparse_gp_model.h"
 #include "server/plan/planner.h"
+#include "server/service/config_rules.h"
 #include "server/service/field_violation.h"
 #include "server/service/strategy_names.h"
 #include "server/service/value_ranges.h"
@@ -40,17 +41,6 @@ std::string ValidStrategyNames() {
     }
   }
   return absl::StrJoin(names, ", ");
-}
-
-// An int field with a default for 0 and an inclusive valid range.
-absl::Status IntWithDefault(absl::string_view field, int32_t* value, int32_t def,
-                            int32_t min, int32_t max) {
-  if (*value == 0) *value = def;
-  if (*value < min || *value > max) {
-    return Invalid(field, absl::StrCat("must be in [", min, ", ", max,
-                                       "] (0 for the default ", def, "), got ", *value));
-  }
-  return absl::OkStatus();
 }
 
 absl::Status CheckInterval(absl::string_view field, const v1::Interval& interval) {
@@ -153,128 +143,7 @@ absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& con
       !s.ok()) {
     return s;
   }
-  int32_t restarts = kernel->restarts();
-  if (absl::Status s = IntWithDefault(Field(kpath, "restarts"), &restarts,
-                                      fit_defaults.restarts, 0, kMaxFitRestarts);
-      !s.ok()) {
-    return s;
-  }
-  kernel->set_restarts(restarts);
-  int32_t iterations = kernel->max_iterations();
-  if (absl::Status s = IntWithDefault(Field(kpath, "max_iterations"), &iterations,
-                                      fit_defaults.max_iterations, 1, kMaxFitIterations);
-      !s.ok()) {
-    return s;
-  }
-  kernel->set_max_iterations(iterations);
-  return absl::OkStatus();
-}
-
-absl::Status ValidatePlanner(absl::string_view path, v1::PlannerConfig* planner) {
-  const std::string ppath = Field(path, "planner");
-  const plan::PlanOptions defaults;
-  int32_t iterations = planner->max_iterations();
-  if (absl::Status s = IntWithDefault(Field(ppath, "max_iterations"), &iterations,
-                                      defaults.max_iterations, 1, 10000);
-      !s.ok()) {
-    return s;
-  }
-  planner->set_max_iterations(iterations);
-  int32_t restarts = planner->restarts();
-  if (absl::Status s =
-          IntWithDefault(Field(ppath, "restarts"), &restarts, defaults.restarts, 0, 100);
-      !s.ok()) {
-    return s;
-  }
-  planner->set_restarts(restarts);
-  if (planner->tolerance() == 0.0) planner->set_tolerance(defaults.tolerance);
-  if (!std::isfinite(planner->tolerance()) || !(planner->tolerance() > 0.0) ||
-      !(planner->tolerance() < 1.0)) {
-    return Invalid(Field(ppath, "tolerance"),
-                   absl::StrCat("must be in (0, 1) (0 for the default ",
-                                defaults.tolerance, "), got ", planner->tolerance()));
-  }
-  if (planner->time_budget_s() == 0.0) planner->set_time_budget_s(kDefaultTimeBudgetS);
-  if (!std::isfinite(planner->time_budget_s()) ||
-      !(planner->time_budget_s() >= kMinTimeBudgetS) ||
-      planner->time_budget_s() > kMaxTimeBudgetS) {
-    return Invalid(Field(ppath, "time_budget_s"),
-                   absl::StrCat("must be in [", kMinTimeBudgetS, ", ", kMaxTimeBudgetS,
-                                "] seconds (0 for the default ", kDefaultTimeBudgetS,
-                                "), got ", planner->time_budget_s()));
-  }
-  return absl::OkStatus();
-}
-
-// A frequency in cycles per sample: 0 means the default, otherwise finite in
-// (0, 0.5] (0.5 is the Nyquist frequency).
-absl::Status FrequencyWithDefault(absl::string_view field, double* value, double def) {
-  if (*value == 0.0) *value = def;
-  if (!std::isfinite(*value) || !(*value > 0.0) || *value > 0.5) {
-    return Invalid(field, absl::StrCat("must be in (0, 0.5] cycles per sample (0 for the "
-                                       "default ",
-                                       def, "), got ", *value));
-  }
-  return absl::OkStatus();
-}
-
-// SignalConfig: every set field is checked whatever the strategy; the defaults are
-// filled in only for the fields the session's strategy uses.
-absl::Status ValidateSignal(absl::string_view path, v1::SessionConfig* config) {
-  const plan::StrategyInfo& strategy = EngineStrategy(config->strategy());
-  const bool prbs = strategy.strategy == plan::Strategy::kPrbs;
-  const bool chirp = strategy.strategy == plan::Strategy::kChirp;
-  const bool random = strategy.strategy == plan::Strategy::kRandom;
-  if (!config->has_signal() && strategy.config_block != "signal") {
-    return absl::OkStatus();
-  }
-  const std::string spath = Field(path, "signal");
-  const plan::SignalOptions defaults;
-  v1::SignalConfig filled = config->signal();
-  int32_t value = filled.prbs_min_hold();
-  if (absl::Status s = IntWithDefault(Field(spath, "prbs_min_hold"), &value,
-                                      defaults.prbs_min_hold, 1, 1000000);
-      !s.ok()) {
-    return s;
-  }
-  filled.set_prbs_min_hold(value);
-  double frequency = filled.chirp_start_frequency();
-  if (absl::Status s = FrequencyWithDefault(Field(spath, "chirp_start_frequency"),
-                                            &frequency, defaults.chirp_start_frequency);
-      !s.ok()) {
-    return s;
-  }
-  filled.set_chirp_start_frequency(frequency);
-  frequency = filled.chirp_end_frequency();
-  if (absl::Status s = FrequencyWithDefault(Field(spath, "chirp_end_frequency"),
-                                            &frequency, defaults.chirp_end_frequency);
-      !s.ok()) {
-    return s;
-  }
-  filled.set_chirp_end_frequency(frequency);
-  value = filled.chirp_period();
-  if (absl::Status s = IntWithDefault(Field(spath, "chirp_period"), &value,
-                                      defaults.chirp_period, 1, 1000000);
-      !s.ok()) {
-    return s;
-  }
-  filled.set_chirp_period(value);
-  value = filled.random_hold();
-  if (absl::Status s = IntWithDefault(Field(spath, "random_hold"), &value,
-                                      defaults.random_hold, 1, 1000000);
-      !s.ok()) {
-    return s;
-  }
-  filled.set_random_hold(value);
-  v1::SignalConfig* signal = config->mutable_signal();
-  if (prbs) signal->set_prbs_min_hold(filled.prbs_min_hold());
-  if (chirp) {
-    signal->set_chirp_start_frequency(filled.chirp_start_frequency());
-    signal->set_chirp_end_frequency(filled.chirp_end_frequency());
-    signal->set_chirp_period(filled.chirp_period());
-  }
-  if (random) signal->set_random_hold(filled.random_hold());
-  return absl::OkStatus();
+  return absl::OkStatus();  // restarts, max_iterations: config_rules.cc
 }
 
 // The state_bounds a strategy needs (StrategyInfo::needs_state_bounds: sep's
@@ -290,55 +159,6 @@ absl::Status ValidateStrategyNeeds(absl::string_view path,
                                 "input_bounds), got ",
                                 config.state_bounds_size()));
   }
-  return absl::OkStatus();
-}
-
-// SepConfig. Set fields are checked whatever the strategy; defaults are filled in
-// for the strategy that reads the block only.
-absl::Status ValidateSep(absl::string_view path, v1::SessionConfig* config) {
-  const bool sep = EngineStrategy(config->strategy()).config_block == "sep";
-  if (!config->has_sep() && !sep) return absl::OkStatus();
-  const std::string spath = Field(path, "sep");
-  const plan::SepOptions defaults;
-  v1::SepConfig filled = config->sep();
-  int32_t value = filled.search_starts();
-  if (absl::Status s = IntWithDefault(Field(spath, "search_starts"), &value,
-                                      defaults.search_starts, 1, 100);
-      !s.ok()) {
-    return s;
-  }
-  filled.set_search_starts(value);
-  value = filled.search_samples();
-  if (absl::Status s = IntWithDefault(Field(spath, "search_samples"), &value,
-                                      defaults.search_samples, 1, 100000);
-      !s.ok()) {
-    return s;
-  }
-  filled.set_search_samples(value);
-  value = filled.search_iterations();
-  if (absl::Status s = IntWithDefault(Field(spath, "search_iterations"), &value,
-                                      defaults.search_iterations, 1, 10000);
-      !s.ok()) {
-    return s;
-  }
-  filled.set_search_iterations(value);
-  if (sep) *config->mutable_sep() = filled;
-  return absl::OkStatus();
-}
-
-// RoiConfig (set fields checked whatever the strategy, defaults filled in for
-// the strategy that reads the block).
-absl::Status ValidateRoi(absl::string_view path, v1::SessionConfig* config) {
-  const bool roi = EngineStrategy(config->strategy()).config_block == "roi";
-  if (!config->has_roi() && !roi) return absl::OkStatus();
-  int32_t points = config->roi().reference_points();
-  if (absl::Status s =
-          IntWithDefault(Field(Field(path, "roi"), "reference_points"), &points,
-                         plan::PlanOptions().roi_reference_points, 1, 4096);
-      !s.ok()) {
-    return s;
-  }
-  if (roi) config->mutable_roi()->set_reference_points(points);
   return absl::OkStatus();
 }
 
@@ -381,30 +201,17 @@ absl::Status ValidateSparse(absl::string_view path, v1::SessionConfig* config) {
         absl::StrCat("must be 0 (never sparse) or in [", kMinSparseAboveSamples, ", ",
                      kMaxSparseAboveSamples, "], got ", above));
   }
+  // max_inducing and fit_samples: config_rules.cc.
   const gp::SparseGpOptions defaults;
-  int32_t inducing = sparse->max_inducing();
-  if (absl::Status s = IntWithDefault(Field(spath, "max_inducing"), &inducing,
-                                      defaults.max_inducing, 1, kMaxInducingPoints);
-      !s.ok()) {
-    return s;
-  }
-  int32_t fit_samples = sparse->fit_samples();
-  if (absl::Status s = IntWithDefault(Field(spath, "fit_samples"), &fit_samples,
-                                      gp::DynamicsModelOptions().sparse_fit_samples,
-                                      kMinSparseAboveSamples, kMaxSparseFitSamples);
-      !s.ok()) {
-    return s;
-  }
   const double tolerance = sparse->inducing_tolerance();
   if (tolerance != 0.0 && !(tolerance >= 1e-6 && tolerance <= 1e6)) {
     return Invalid(Field(spath, "inducing_tolerance"),
                    absl::StrCat("must be 0 (default ", defaults.inducing_tolerance,
                                 ") or in [1e-6, 1e6] noise variances, got ", tolerance));
   }
-  if (above == 0) return absl::OkStatus();
-  sparse->set_max_inducing(inducing);
-  sparse->set_fit_samples(fit_samples);
-  if (tolerance == 0.0) sparse->set_inducing_tolerance(defaults.inducing_tolerance);
+  if (above > 0 && tolerance == 0.0) {
+    sparse->set_inducing_tolerance(defaults.inducing_tolerance);
+  }
   return absl::OkStatus();
 }
 
@@ -538,29 +345,8 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
                 absl::StrCat("unknown value ", static_cast<int>(config->strategy()),
                              "; valid: ", ValidStrategyNames())));
   }
-  if (const int fixed = EngineStrategy(config->strategy()).fixed_horizon; fixed > 0) {
-    if (config->horizon() < 0 || config->horizon() > kMaxHorizon) {
-      problems.Add(Invalid(
-          Field(path, "horizon"),
-          absl::StrCat("must be in [1, ", kMaxHorizon, "], got ", config->horizon())));
-    } else {
-      config->set_horizon(fixed);  // e.g. greedy is rec with M = 1
-    }
-  } else {
-    int32_t horizon = config->horizon();
-    const absl::Status s = IntWithDefault(Field(path, "horizon"), &horizon,
-                                          plan::PlanOptions().horizon, 1, kMaxHorizon);
-    problems.Add(s);
-    if (s.ok()) config->set_horizon(horizon);
-  }
-
   const std::string rpath = Field(path, "refit");
   v1::RefitPolicy* refit = config->mutable_refit();
-  int32_t every = refit->every_samples();
-  const absl::Status every_ok = IntWithDefault(Field(rpath, "every_samples"), &every,
-                                               kDefaultRefitEverySamples, 1, 1000000);
-  problems.Add(every_ok);
-  if (every_ok.ok()) refit->set_every_samples(every);
   if (!refit->has_growth()) {
     refit->set_growth(kDefaultRefitGrowth);
   } else if (!(std::isfinite(refit->growth()) && refit->growth() >= 0.0 &&
@@ -571,22 +357,20 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
                              "got ",
                              refit->growth())));
   }
-  int32_t min_samples = refit->min_samples();
-  const absl::Status min_ok = IntWithDefault(Field(rpath, "min_samples"), &min_samples,
-                                             kDefaultMinSamples, 2, 1000000);
-  problems.Add(min_ok);
-  if (min_ok.ok()) refit->set_min_samples(min_samples);
-
   if (dims_ok) {
     problems.Add(ValidateStrategyNeeds(path, *config));
-    problems.Add(ValidateSignal(path, config));
-    problems.Add(ValidateSep(path, config));
-    problems.Add(ValidateRoi(path, config));
     problems.Add(ValidateOptimistic(path, config));
     problems.Add(ValidateSafety(path, config));
   }
   problems.Add(ValidateSparse(path, config));
-  problems.Add(ValidatePlanner(path, config->mutable_planner()));
+  // Every number whose 0 means a default: the table (config_rules.cc).
+  const std::vector<absl::Status> numbers = ApplyNumberRules(config, path);
+  for (const absl::Status& s : numbers) problems.Add(s);
+  // A strategy with a fixed horizon (greedy: 1) overrides a valid one.
+  if (const int fixed = EngineStrategy(config->strategy()).fixed_horizon;
+      fixed > 0 && config->horizon() >= 1 && config->horizon() <= kMaxHorizon) {
+    config->set_horizon(fixed);
+  }
   return problems.Result();
 }
 

@@ -43,47 +43,29 @@ inline constexpr int kMaxSparseFitSamples = 100000;
 // `path`, e.g. "config.input_bounds[0]: lower (2) must be < upper (1)". On error
 // `config` may be partly filled.
 //
-// Rules (a zero/unset number means "default" where a default is listed; the
-// defaults are those of gp::FitOptions and plan::PlanOptions, as the proto says;
-// the numeric ranges are value_ranges.h's, chosen so that the model stays finite):
+// The numbers whose 0 means a default (iterations, restarts, horizon, refit
+// counts, signal, sep, roi, sparse sizes, planner tolerances and budget) are
+// checked and filled from one table, config_rules.h (its rows are the API
+// reference's "SessionConfig numbers"). The rules written here relate fields or
+// depend on presence:
 //   state_dim in [1, 64]; input_dim in [1, 32];
 //   input_bounds: exactly input_dim intervals, lower < upper, both within
-//     +-1e30, upper - lower >= 1e-30;
-//   state_bounds: 0 or state_dim intervals, as input_bounds;
+//     +-1e30, upper - lower >= 1e-30; state_bounds: 0 or state_dim of them;
 //   noise.variance in [1e-30, 1e30]; noise.fit only with kernel.fit;
-//   kernel.fit = false: kernel.fixed has state_dim entries (ValidateHyperparameters);
-//     kernel.fit = true: kernel.fixed empty;
-//   kernel.lengthscale_bounds default [0.05, 50], within [1e-6, 1e6];
-//     signal_variance_bounds default [0.01, 100], within [1e-12, 1e12]; lower < upper;
-//   kernel.restarts in [0, 20] (0: default 2); kernel.max_iterations in
-//     [0, 1000] (0: default 60);
-//   target: UNSPECIFIED -> DELTA; strategy: UNSPECIFIED -> REC; unknown values are
-//     rejected; STRATEGY_SEP and STRATEGY_ROI require state_dim state_bounds;
-//   horizon in [0, 200] (0: default 15); GREEDY forces 1;
-//   refit.every_samples in [0, 1000000] (0: default 1); refit.growth finite in
-//     [0, 10] (unset: 0.05); refit.min_samples in
-//     {0} or [2, 1000000] (0: default 2; a fit needs 2 samples);
-//   planner.max_iterations in [0, 10000] (0: default 100); planner.restarts in
-//     [0, 100] (0: default 1); planner.tolerance 0 (default 1e-4) or finite in
-//     (0, 1); planner.time_budget_s 0 (default 10) or in [0.001, 3600];
-//   signal (plan::SignalOptions defaults): prbs_min_hold, chirp_period and
-//     random_hold in [1, 1000000] (0: default 5, 200, 1); chirp_start_frequency
-//     and chirp_end_frequency finite in (0, 0.5] (0: default 0.01, 0.2);
-//   sep (plan::SepOptions defaults): search_starts in [1, 100] (0: default 4),
-//     search_samples in [1, 100000] (0: default 256), search_iterations in
-//     [1, 10000] (0: default 50);
-//   roi: reference_points in [1, 4096] (0: default 256);
-//   safety: state_bounds 0 or state_dim intervals, as state_bounds; margin
-//     finite in [0, kMaxSafetyMargin] (unset with a box: 2).
-//   sparse: above_samples 0 or in [10, 1000000] (unset: 1000; MI and ROI: unset
-//     or 0, filled in as 0); max_inducing in [0, 4096] (0: default 256);
-//     inducing_tolerance 0 (default 0.1) or finite in [1e-6, 1e6]; fit_samples in
-//     [10, 100000] (0: default 1000); the last three filled in only when
-//     above_samples > 0.
-//   signal, sep and roi fields that are set are checked whatever the strategy, but
-//   defaults are filled in only for the fields the session's strategy uses (prbs:
-//   prbs_min_hold; chirp: the chirp_* fields; random: random_hold; sep: all of
-//   sep; roi: all of roi), so other sessions' stored configs do not change.
+//   kernel.fit unset: fitted unless kernel.fixed is given; kernel.fit = false:
+//     state_dim kernel.fixed entries (ValidateHyperparameters), true: none;
+//   kernel.lengthscale_bounds (default [0.05, 50]) within [1e-6, 1e6],
+//     signal_variance_bounds (default [0.01, 100]) within [1e-12, 1e12];
+//   target UNSPECIFIED -> DELTA; strategy UNSPECIFIED -> REC; unknown values
+//     are rejected; a strategy that needs state bounds (plan/strategy.h) needs
+//     state_dim of them; a fixed horizon (greedy: 1) overrides a valid one;
+//   refit.growth finite in [0, 10] (unset: 0.05);
+//   optimistic.beta in (0, 10] when set (filled in, 1, for optimistic);
+//   safety: 0 or state_dim state_bounds; margin finite in [0, 10] (unset with
+//     a box: 2);
+//   sparse.above_samples 0 or in [10, 1000000] (unset: 1000; strategies that
+//     need joint covariances: 0); inducing_tolerance 0 (default 0.1) or in
+//     [1e-6, 1e6], filled in only when above_samples > 0.
 // Note that proto3 cannot tell 0 from unset: 0 restarts cannot be requested.
 absl::Status ValidateSessionConfig(v1::SessionConfig* config,
                                    absl::string_view path = "config");
