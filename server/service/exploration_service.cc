@@ -124,6 +124,14 @@ absl::StatusOr<std::shared_ptr<Session>> ExplorationService::FindSession(
   return registry_->Get(*id);
 }
 
+absl::StatusOr<std::shared_ptr<Session>> ExplorationService::FindUndamagedSession(
+    const std::string& name, absl::string_view field) {
+  absl::StatusOr<std::shared_ptr<Session>> session = FindSession(name, field);
+  if (!session.ok()) return session.status();
+  if (absl::Status s = (*session)->Damage(); !s.ok()) return s;
+  return session;
+}
+
 absl::Status ExplorationService::CheckHorizonCap(const v1::SessionConfig& validated,
                                                  absl::string_view field) const {
   if (validated.horizon() <= limits_.max_horizon) return absl::OkStatus();
@@ -213,9 +221,8 @@ absl::StatusOr<v1::AddDataResponse> ExplorationService::AddMessage(
           "session: required in the first message of the stream (\"sessions/{id}\")");
     }
     absl::StatusOr<std::shared_ptr<Session>> found =
-        FindSession(request.session(), "session");
+        FindUndamagedSession(request.session(), "session");
     if (!found.ok()) return found.status();
-    if (absl::Status s = (*found)->Damage(); !s.ok()) return s;
     *session = *std::move(found);
   } else if (!request.session().empty() && request.session() != (*session)->name()) {
     return absl::InvalidArgumentError(
@@ -227,8 +234,7 @@ absl::StatusOr<v1::AddDataResponse> ExplorationService::AddMessage(
     return WithMessage(s, absl::StrCat("message ", message_index, ": ", s.message()));
   };
   const SessionSpec& spec = (*session)->spec();
-  if (absl::Status s =
-          ValidateTransitions({spec.state_dim, spec.input_dim}, request.transitions());
+  if (absl::Status s = ValidateTransitions(DimsOf(spec), request.transitions());
       !s.ok()) {
     return naming_the_message(s);
   }
@@ -332,14 +338,11 @@ grpc::Status ExplorationService::Predict(grpc::ServerContext* context,
                                          v1::PredictResponse* response) {
   return RunRpc("Predict", request->session(), [&]() -> absl::Status {
     absl::StatusOr<std::shared_ptr<Session>> session =
-        FindSession(request->session(), "session");
+        FindUndamagedSession(request->session(), "session");
     if (!session.ok()) return session.status();
-    // Before validating against a config a damaged session may not have.
-    if (absl::Status s = (*session)->Damage(); !s.ok()) return s;
     const SessionSpec& spec = (*session)->spec();
-    if (absl::Status s =
-            ValidatePredictInputs({spec.state_dim, spec.input_dim}, request->inputs(),
-                                  limits_.max_predict_points);
+    if (absl::Status s = ValidatePredictInputs(DimsOf(spec), request->inputs(),
+                                               limits_.max_predict_points);
         !s.ok()) {
       return s;
     }
@@ -361,14 +364,10 @@ grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
                                             v1::PlanInputsResponse* response) {
   return RunRpc("PlanInputs", request->session(), [&]() -> absl::Status {
     absl::StatusOr<std::shared_ptr<Session>> session =
-        FindSession(request->session(), "session");
+        FindUndamagedSession(request->session(), "session");
     if (!session.ok()) return session.status();
-    // Before validating against a config a damaged session may not have.
-    if (absl::Status s = (*session)->Damage(); !s.ok()) return s;
     const SessionSpec& spec = (*session)->spec();
-    if (absl::Status s =
-            ValidatePlanState({spec.state_dim, spec.input_dim}, request->state());
-        !s.ok()) {
+    if (absl::Status s = ValidatePlanState(DimsOf(spec), request->state()); !s.ok()) {
       return s;
     }
     const Clock::time_point deadline = BudgetDeadline(*context, spec.time_budget_s);

@@ -92,6 +92,11 @@ class ExplorationService final : public v1::ExplorationService::Service {
   // if malformed, NOT_FOUND if unknown).
   absl::StatusOr<std::shared_ptr<Session>> FindSession(const std::string& name,
                                                        absl::string_view field);
+  // FindSession, then DATA_LOSS if the session was set aside as damaged: checked
+  // before a request is validated against dimensions a damaged session may not
+  // have.
+  absl::StatusOr<std::shared_ptr<Session>> FindUndamagedSession(const std::string& name,
+                                                                absl::string_view field);
   // One message of an AddData or StreamData stream: on the first, finds the
   // session into *session; then validates the message and stores it
   // (Session::AddSamples, whose result counts this message). INVALID_ARGUMENT

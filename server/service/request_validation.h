@@ -8,6 +8,7 @@
 #include "excite/v1/exploration_service.pb.h"
 #include "excite/v1/session_config.pb.h"
 #include "google/protobuf/repeated_field.h"
+#include "server/session/session_spec.h"
 
 namespace excite::service {
 
@@ -16,6 +17,9 @@ struct Dims {
   int state_dim = 0;
   int input_dim = 0;
 };
+inline Dims DimsOf(const session::SessionSpec& spec) {
+  return {spec.state_dim, spec.input_dim};
+}
 
 // Checks one AddData message's transitions against a (validated) session config:
 // state/next_state of state_dim and input of input_dim numbers, all finite and
