@@ -21,7 +21,6 @@
 #include "common/usage.h"
 #include "server/blas/blas_lock.h"
 #include "server/service/auth.h"
-#include "server/service/config_rules.h"
 #include "server/service/excite_server.h"
 
 ABSL_FLAG(std::string, listen, "127.0.0.1:50051",
@@ -49,10 +48,6 @@ ABSL_FLAG(int64_t, session_idle_release_s, 300,
           "Shared --store: a session unused this long is released (memory freed, "
           "lease given up); 0: never.");
 ABSL_FLAG(std::string, log_level, "info", "debug, info, warning or error.");
-ABSL_FLAG(bool, print_config_rules, false,
-          "Print the rules of SessionConfig's numbers (field, default, range, why) as a "
-          "Markdown table and exit (docs/gen_api_reference.py puts it in the API "
-          "reference).");
 ABSL_FLAG(int, max_message_mb, 64, "Largest gRPC message received or sent, in MiB.");
 ABSL_FLAG(int64_t, max_sessions, 10000, "Cap on the number of sessions.");
 ABSL_FLAG(std::string, metrics_listen, "",
@@ -88,10 +83,6 @@ int Run(int argc, char** argv) {
   excite::ParseFlags(
       argc, argv,
       "excite-server [--listen=HOST:PORT] [--data_dir=DIR] [--log_level=LEVEL]");
-  if (absl::GetFlag(FLAGS_print_config_rules)) {
-    std::fputs(excite::service::NumberRulesMarkdown().c_str(), stdout);
-    return 0;
-  }
 
   absl::StatusOr<LogLevel> level = excite::ParseLogLevel(absl::GetFlag(FLAGS_log_level));
   if (!level.ok()) {
