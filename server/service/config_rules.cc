@@ -40,13 +40,31 @@ NumberRule For(NumberRule rule, absl::string_view filled_for) {
   return rule;
 }
 
+// Both ends excluded.
+NumberRule Open(NumberRule rule) {
+  rule.min_open = rule.max_open = true;
+  return rule;
+}
+
+NumberRule Seconds(NumberRule rule) {
+  rule.unit = " seconds";
+  return rule;
+}
+
+// A frequency in cycles per sample: (0, 0.5], 0.5 being the Nyquist frequency.
+NumberRule Frequency(NumberRule rule) {
+  rule.min_open = true;
+  rule.unit = " cycles per sample";
+  return rule;
+}
+
 std::vector<NumberRule> MakeRules() {
   const gp::FitOptions fit;
   const plan::PlanOptions plan;
   const plan::SignalOptions& signal = plan.signal;
   const plan::SepOptions& sep = plan.sep;
   const gp::SparseGpOptions sparse;
-  std::vector<NumberRule> rules = {
+  return {
       Rule("kernel.restarts", fit.restarts, 0, kMaxFitRestarts,
            "ML-II random restarts on top of the warm start; each costs O(n^3) per "
            "iteration"),
@@ -61,11 +79,12 @@ std::vector<NumberRule> MakeRules() {
       For(Rule("signal.prbs_min_hold", signal.prbs_min_hold, 1, 1000000,
                "samples per PRBS clock period"),
           "prbs"),
-      For(Rule("signal.chirp_start_frequency", signal.chirp_start_frequency, 0, 0.5,
-               "cycles per sample at the start of a sweep (0.5: Nyquist)"),
+      For(Frequency(Rule("signal.chirp_start_frequency", signal.chirp_start_frequency, 0,
+                         0.5,
+                         "cycles per sample at the start of a sweep (0.5: Nyquist)")),
           "chirp"),
-      For(Rule("signal.chirp_end_frequency", signal.chirp_end_frequency, 0, 0.5,
-               "cycles per sample at the end of a sweep"),
+      For(Frequency(Rule("signal.chirp_end_frequency", signal.chirp_end_frequency, 0, 0.5,
+                         "cycles per sample at the end of a sweep")),
           "chirp"),
       For(Rule("signal.chirp_period", signal.chirp_period, 1, 1000000,
                "samples per sweep (the sweep repeats)"),
@@ -96,20 +115,11 @@ std::vector<NumberRule> MakeRules() {
            "Ipopt iterations per start"),
       Rule("planner.restarts", plan.restarts, 0, 100,
            "random starts on top of the warm start"),
-      Rule("planner.tolerance", plan.tolerance, 0, 1, "Ipopt's tol"),
-      Rule("planner.time_budget_s", kDefaultTimeBudgetS, kMinTimeBudgetS, kMaxTimeBudgetS,
-           "a call's refit and plan; the client's deadline also applies"),
+      Open(Rule("planner.tolerance", plan.tolerance, 0, 1, "Ipopt's tol")),
+      Seconds(Rule("planner.time_budget_s", kDefaultTimeBudgetS, kMinTimeBudgetS,
+                   kMaxTimeBudgetS,
+                   "a call's refit and plan; the client's deadline also applies")),
   };
-  for (NumberRule& rule : rules) {
-    if (absl::StartsWith(rule.path, "signal.chirp_") &&
-        rule.path != "signal.chirp_period") {
-      rule.min_open = true;
-      rule.unit = " cycles per sample";
-    }
-    if (rule.path == "planner.tolerance") rule.min_open = rule.max_open = true;
-    if (rule.path == "planner.time_budget_s") rule.unit = " seconds";
-  }
-  return rules;
 }
 
 // The field at `path` (dot-separated) under `root`: the message holding it (read
@@ -175,14 +185,13 @@ absl::Span<const NumberRule> NumberRules() {
   return *rules;
 }
 
-std::vector<absl::Status> ApplyNumberRules(v1::SessionConfig* config,
-                                           absl::string_view path) {
-  std::vector<absl::Status> problems;
+void ApplyNumberRules(v1::SessionConfig* config, absl::string_view path,
+                      Violations* problems) {
   for (const NumberRule& rule : NumberRules()) {
     const Message* holder = nullptr;
     const FieldDescriptor* field = Resolve(*config, rule.path, &holder);
     if (field == nullptr) {
-      problems.push_back(absl::InternalError(
+      problems->Add(absl::InternalError(
           absl::StrCat("config rule for an unknown field ", rule.path)));
       continue;
     }
@@ -192,7 +201,7 @@ std::vector<absl::Status> ApplyNumberRules(v1::SessionConfig* config,
                               : reflection->GetDouble(*holder, field);
     const double value = set == 0.0 ? rule.default_value : set;
     if (!InRange(rule, value)) {
-      problems.push_back(FieldViolationError(
+      problems->Add(FieldViolationError(
           absl::StrCat(path, ".", rule.path),
           absl::StrCat("must be in ", Range(rule, as_int), rule.unit,
                        " (0 for the default ", Number(rule.default_value, as_int),
@@ -208,7 +217,6 @@ std::vector<absl::Status> ApplyNumberRules(v1::SessionConfig* config,
       target->GetReflection()->SetDouble(target, field, rule.default_value);
     }
   }
-  return problems;
 }
 
 std::string NumberRulesMarkdown() {

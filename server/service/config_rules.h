@@ -2,12 +2,12 @@
 #define EXCITE_SERVER_SERVICE_CONFIG_RULES_H_
 
 #include <string>
-#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/string_view.h"
 #include "absl/types/span.h"
 #include "excite/v1/session_config.pb.h"
+#include "server/service/field_violation.h"
 
 namespace excite::service {
 
@@ -42,10 +42,10 @@ absl::Span<const NumberRule> NumberRules();
 // Checks every rule's field of `config` (a 0 is the default, whatever the
 // strategy; a set value must be in range) and fills the defaults of the rules
 // whose filled_for applies (call it once the strategy and
-// sparse.above_samples are settled). Returns one FieldViolationError per field
-// out of range (field "<path>.<rule path>"), in table order.
-std::vector<absl::Status> ApplyNumberRules(v1::SessionConfig* config,
-                                           absl::string_view path);
+// sparse.above_samples are settled). Adds one FieldViolationError per field
+// out of range (field "<path>.<rule path>") to `problems`, in table order.
+void ApplyNumberRules(v1::SessionConfig* config, absl::string_view path,
+                      Violations* problems);
 
 // The rules as a Markdown table (field, default, range, filled for, why): the
 // API reference's section, generated from the same data.

@@ -364,8 +364,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
   }
   problems.Add(ValidateSparse(path, config));
   // Every number whose 0 means a default: the table (config_rules.cc).
-  const std::vector<absl::Status> numbers = ApplyNumberRules(config, path);
-  for (const absl::Status& s : numbers) problems.Add(s);
+  ApplyNumberRules(config, path, &problems);
   // A strategy with a fixed horizon (greedy: 1) overrides a valid one.
   if (const int fixed = EngineStrategy(config->strategy()).fixed_horizon;
       fixed > 0 && config->horizon() >= 1 && config->horizon() <= kMaxHorizon) {

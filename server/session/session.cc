@@ -36,21 +36,14 @@ TransitionRows ToRows(const std::vector<store::SampleRecord>& samples, int dx, i
   return rows;
 }
 
-// The rows for which `keep` is true (`count` of them).
-TransitionRows Kept(const TransitionRows& rows, const std::vector<bool>& keep,
-                    Eigen::Index count) {
-  TransitionRows kept{Eigen::MatrixXd(count, rows.states.cols()),
-                      Eigen::MatrixXd(count, rows.inputs.cols()),
-                      Eigen::MatrixXd(count, rows.next_states.cols())};
-  Eigen::Index row = 0;
-  for (Eigen::Index i = 0; i < rows.states.rows(); ++i) {
-    if (!keep[static_cast<size_t>(i)]) continue;
-    kept.states.row(row) = rows.states.row(i);
-    kept.inputs.row(row) = rows.inputs.row(i);
-    kept.next_states.row(row) = rows.next_states.row(i);
-    ++row;
+// The rows for which `keep` is true (Eigen 3.4's index-list slicing).
+TransitionRows Kept(const TransitionRows& rows, const std::vector<bool>& keep) {
+  std::vector<Eigen::Index> kept;
+  for (size_t i = 0; i < keep.size(); ++i) {
+    if (keep[i]) kept.push_back(static_cast<Eigen::Index>(i));
   }
-  return kept;
+  return {rows.states(kept, Eigen::all), rows.inputs(kept, Eigen::all),
+          rows.next_states(kept, Eigen::all)};
 }
 
 double SecondsSince(Session::Clock::time_point start) {
@@ -407,7 +400,7 @@ absl::StatusOr<AddResult> Session::AddSamples(
           last_sequence_ = std::max(last_sequence_, batch[i].sequence);
       }
       if (n < static_cast<Eigen::Index>(batch.size())) {
-        rows = Kept(rows, inserted->stored, n);  // duplicates are not added again
+        rows = Kept(rows, inserted->stored);  // duplicates are not added again
       }
       absl::Status added;
       try {
