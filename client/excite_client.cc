@@ -94,7 +94,7 @@ void ExciteClient::Prepare(grpc::ClientContext* context,
 }
 
 template <typename Attempt>
-auto ExciteClient::Retrying(Attempt&& attempt, bool idempotent) const
+auto ExciteClient::Retrying(Attempt&& attempt, Resend resend) const
     -> decltype(attempt()) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point give_up = Clock::now() + options_.retry_unavailable;
@@ -103,7 +103,10 @@ auto ExciteClient::Retrying(Attempt&& attempt, bool idempotent) const
     auto result = attempt();
     const absl::Status& status = StatusOf(result);
     const bool retryable =
-        absl::IsUnavailable(status) || (idempotent && absl::IsDeadlineExceeded(status));
+        absl::IsUnavailable(status) ||
+        (resend != Resend::kIfUnavailable && absl::IsUnknown(status)) ||
+        (resend == Resend::kAfterLostAnswerOrDeadline &&
+         absl::IsDeadlineExceeded(status));
     if (!retryable || Clock::now() + backoff >= give_up) return result;
     std::this_thread::sleep_for(backoff);
     backoff = std::min<std::chrono::milliseconds>(backoff * 2, std::chrono::seconds(2));
@@ -155,14 +158,14 @@ absl::StatusOr<v1::Session> ExciteClient::CreateSession(const v1::SessionConfig&
 absl::StatusOr<v1::Session> ExciteClient::CreateSession(
     const v1::CreateSessionRequest& request) {
   return Unary(&v1::ExplorationService::Stub::CreateSession, request,
-               request.session_id(), options_.default_deadline);
+               request.session_id(), options_.default_deadline, Resend::kIfUnavailable);
 }
 
 absl::StatusOr<v1::Session> ExciteClient::GetSession(const std::string& name) {
   v1::GetSessionRequest request;
   request.set_name(name);
   return Unary(&v1::ExplorationService::Stub::GetSession, request, name,
-               options_.default_deadline);
+               options_.default_deadline, Resend::kAfterLostAnswer);
 }
 
 absl::StatusOr<v1::ListSessionsResponse> ExciteClient::ListSessions(
@@ -172,14 +175,14 @@ absl::StatusOr<v1::ListSessionsResponse> ExciteClient::ListSessions(
   request.set_page_token(page_token);
   request.set_filter(filter);
   return Unary(&v1::ExplorationService::Stub::ListSessions, request, "",
-               options_.default_deadline);
+               options_.default_deadline, Resend::kAfterLostAnswer);
 }
 
 absl::Status ExciteClient::DeleteSession(const std::string& name) {
   v1::DeleteSessionRequest request;
   request.set_name(name);
   return Unary(&v1::ExplorationService::Stub::DeleteSession, request, name,
-               options_.default_deadline)
+               options_.default_deadline, Resend::kIfUnavailable)
       .status();
 }
 
@@ -204,7 +207,7 @@ absl::StatusOr<v1::AddDataResponse> ExciteClient::AddData(
     if (absl::Status s = FromGrpc(writer->Finish()); !s.ok()) return s;
     return response;
   };
-  return Retrying(attempt, /*idempotent=*/true);
+  return Retrying(attempt, Resend::kAfterLostAnswerOrDeadline);
 }
 
 std::unique_ptr<DataStream> ExciteClient::OpenDataStream(
@@ -255,7 +258,7 @@ absl::Status DataStream::Close() {
 absl::StatusOr<v1::PredictResponse> ExciteClient::Predict(
     const v1::PredictRequest& request) {
   return Unary(&v1::ExplorationService::Stub::Predict, request, request.session(),
-               options_.default_deadline);
+               options_.default_deadline, Resend::kAfterLostAnswer);
 }
 
 absl::StatusOr<v1::PlanInputsResponse> ExciteClient::PlanInputs(
@@ -264,25 +267,28 @@ absl::StatusOr<v1::PlanInputsResponse> ExciteClient::PlanInputs(
   request.set_session(session);
   for (double x : state) request.add_state(x);
   return Unary(&v1::ExplorationService::Stub::PlanInputs, request, session,
-               options_.plan_deadline);
+               options_.plan_deadline, Resend::kAfterLostAnswer);
 }
 
 template <typename Request, typename Response>
 absl::StatusOr<Response> ExciteClient::Unary(
     grpc::Status (v1::ExplorationService::Stub::*method)(grpc::ClientContext*,
                                                          const Request&, Response*),
-    const Request& request, const std::string& session,
-    std::chrono::milliseconds timeout) {
-  return Retrying([&]() -> absl::StatusOr<Response> {
-    grpc::ClientContext context;
-    Prepare(&context, timeout, session);
-    Response response;
-    if (absl::Status s = FromGrpc((stub_.get()->*method)(&context, request, &response));
-        !s.ok()) {
-      return s;
-    }
-    return response;
-  });
+    const Request& request, const std::string& session, std::chrono::milliseconds timeout,
+    Resend resend) {
+  return Retrying(
+      [&]() -> absl::StatusOr<Response> {
+        grpc::ClientContext context;
+        Prepare(&context, timeout, session);
+        Response response;
+        if (absl::Status s =
+                FromGrpc((stub_.get()->*method)(&context, request, &response));
+            !s.ok()) {
+          return s;
+        }
+        return response;
+      },
+      resend);
 }
 
 absl::StatusOr<v1::SessionArchive> ExciteClient::ExportSession(const std::string& name) {
@@ -290,7 +296,7 @@ absl::StatusOr<v1::SessionArchive> ExciteClient::ExportSession(const std::string
   request.set_name(name);
   absl::StatusOr<v1::SessionArchive> archive =
       Unary(&v1::ExplorationService::Stub::ExportSession, request, name,
-            options_.default_deadline);
+            options_.default_deadline, Resend::kAfterLostAnswer);
   if (!archive.ok()) {
     return WithSizeHint(archive.status(),
                         absl::StrCat("the archive is larger than this client's message "
@@ -305,9 +311,10 @@ absl::StatusOr<v1::Session> ExciteClient::ImportSession(const v1::SessionArchive
   v1::ImportSessionRequest request;
   *request.mutable_archive() = archive;
   request.set_session_id(session_id);
-  absl::StatusOr<v1::Session> session = Unary(
-      &v1::ExplorationService::Stub::ImportSession, request,
-      session_id.empty() ? archive.session_id() : session_id, options_.default_deadline);
+  absl::StatusOr<v1::Session> session =
+      Unary(&v1::ExplorationService::Stub::ImportSession, request,
+            session_id.empty() ? archive.session_id() : session_id,
+            options_.default_deadline, Resend::kIfUnavailable);
   if (!session.ok()) {
     return WithSizeHint(
         session.status(),

@@ -36,8 +36,9 @@ struct ClientOptions {
   // dead, a session moving to another replica) are retried, with backoff from
   // 50 ms to 2 s, until this much time has passed since the first attempt; 0:
   // never. Safe for AddData (sequence numbers make a resent batch a
-  // duplicate), which is also retried after DEADLINE_EXCEEDED (data_deadline);
-  // a CreateSession without an id that failed after the server stored it
+  // duplicate), which is also retried after DEADLINE_EXCEEDED (data_deadline).
+  // Reads, PlanInputs and AddData are also retried after a lost answer (UNKNOWN
+  // "Stream removed": a proxy's replica died mid-call); a CreateSession without an id that failed after the server stored it
   // leaves an unused session behind. DataStream is not retried.
   std::chrono::milliseconds retry_unavailable{0};
 };
@@ -134,17 +135,25 @@ class ExciteClient {
   // Deadline, the authorization metadata and, unless empty, the session header.
   void Prepare(grpc::ClientContext* context, std::chrono::milliseconds timeout,
                const std::string& session) const;
+  // Which failures besides UNAVAILABLE a call is resent after. A lost answer
+  // is gRPC's UNKNOWN "Stream removed": the connection (a proxy's to a replica
+  // that died) dropped mid-call, so the work may or may not have been done.
+  enum class Resend {
+    kIfUnavailable,              // resending could do the work twice
+    kAfterLostAnswer,            // reads, and plans: doing it again changes nothing
+    kAfterLostAnswerOrDeadline,  // AddData: sequence numbers make a resent batch a
+                                 // duplicate
+  };
   // `attempt` (one call, returning absl::Status or StatusOr), retried as
-  // options_.retry_unavailable says; also after DEADLINE_EXCEEDED if
-  // `idempotent` (a resent attempt changes nothing that the first one did).
+  // options_.retry_unavailable and `resend` say.
   template <typename Attempt>
-  auto Retrying(Attempt&& attempt, bool idempotent = false) const -> decltype(attempt());
+  auto Retrying(Attempt&& attempt, Resend resend) const -> decltype(attempt());
   // One unary call of `method` about `session` ("" if none), with `timeout`.
   template <typename Request, typename Response>
   absl::StatusOr<Response> Unary(grpc::Status (v1::ExplorationService::Stub::*method)(
                                      grpc::ClientContext*, const Request&, Response*),
                                  const Request& request, const std::string& session,
-                                 std::chrono::milliseconds timeout);
+                                 std::chrono::milliseconds timeout, Resend resend);
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::ExplorationService::Stub> stub_;
   ClientOptions options_;

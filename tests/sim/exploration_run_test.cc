@@ -84,6 +84,11 @@ class FakeService final : public v1::ExplorationService::Service {
   grpc::Status Predict(grpc::ServerContext*, const v1::PredictRequest* request,
                        v1::PredictResponse* reply) override {
     std::lock_guard<std::mutex> lock(mu_);
+    if (lost_answers_ > 0) {
+      --lost_answers_;
+      // What gRPC reports when a proxy's connection to a dying replica drops.
+      return grpc::Status(grpc::StatusCode::UNKNOWN, "Stream removed");
+    }
     const bool exact = static_cast<int>(transitions_.size()) >= exact_after;
     for (int p = 0; p < request->inputs_size() / 3; ++p) {
       const Eigen::VectorXd x =
@@ -128,6 +133,7 @@ class FakeService final : public v1::ExplorationService::Service {
   double planned_input = 10.0;  // Outside the bounds: the client clips it.
   bool refuse_plans_ = false;
   int late_plans_at_5 = 0;  // PlanInputs answering DEADLINE_EXCEEDED at 5 samples
+  int lost_answers_ = 0;    // Predicts answering UNKNOWN "Stream removed"
 };
 
 class ExplorationRunTest : public testing::Test {
@@ -287,6 +293,32 @@ TEST_F(ExplorationRunTest, StuckAddDataIsRetriedWithTheSameSequenceNumbers) {
   ASSERT_FALSE(summary.ok());
   EXPECT_EQ(summary.status().code(), absl::StatusCode::kDeadlineExceeded);
   EXPECT_NE(summary.status().message().find("AddData"), std::string::npos)
+      << summary.status();
+}
+
+// A Predict whose connection dropped mid-call (a replica killed behind the
+// proxy: UNKNOWN "Stream removed") is resent within the retry window; without
+// one, the run fails naming Predict. CI once failed on this very case.
+TEST_F(ExplorationRunTest, PredictAfterALostAnswerIsResent) {
+  client::ClientOptions options;
+  options.retry_unavailable = std::chrono::seconds(20);
+  client_ = client::ExciteClient::Connect(address_, options);
+  config_.set_samples(8);
+  service_->lost_answers_ = 2;
+  absl::StatusOr<RunSummary> summary = Run();
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->samples, 8);
+  EXPECT_EQ(service_->lost_answers_, 0);
+
+  options.retry_unavailable = std::chrono::milliseconds(0);
+  client_ = client::ExciteClient::Connect(address_, options);
+  service_->transitions_.clear();
+  service_->sequences_.clear();
+  service_->lost_answers_ = 1;
+  summary = Run();
+  ASSERT_FALSE(summary.ok());
+  EXPECT_EQ(summary.status().code(), absl::StatusCode::kUnknown);
+  EXPECT_NE(summary.status().message().find("Predict"), std::string::npos)
       << summary.status();
 }
 
