@@ -15,10 +15,12 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "common/angles.h"
 #include "server/gp/flush_denormals.h"
 #include "server/gp/gp_model.h"
 #include "server/gp/hyperparameter_fit.h"
 #include "server/gp/hyperparameters.h"
+#include "server/gp/input_features.h"
 #include "server/gp/sparse_gp_model.h"
 
 namespace excite::gp {
@@ -64,7 +66,9 @@ struct DynamicsModel::State {
   int state_dim = 0;
   int input_dim = 0;
   int z_dim = 0;
-  // All data, in data units: inputs z = (x, u) and targets (delta or next).
+  InputFeatures features{0, {}};
+  // All data, in data units: the features of the inputs z = (x, u)
+  // (InputFeatures) and the targets (delta, angles wrapped, or next).
   Eigen::MatrixXd z;
   Eigen::MatrixXd targets;
   int samples_since_fit = 0;
@@ -100,8 +104,20 @@ struct DynamicsModel::State {
   Eigen::VectorXd StandardisedTargets(int j, double scale) const {
     return (targets.col(j).array() - prior_mean(j)) / scale;
   }
-  Eigen::MatrixXd Normalise(const Eigen::MatrixXd& raw) const {
-    return (raw.rowwise() - center.transpose()) * half_width.cwiseInverse().asDiagonal();
+  Eigen::MatrixXd NormaliseFeatures(const Eigen::MatrixXd& f) const {
+    return (f.rowwise() - center.transpose()) * half_width.cwiseInverse().asDiagonal();
+  }
+  // Normalised features of inputs z (m x z_dim).
+  Eigen::MatrixXd Normalise(const Eigen::MatrixXd& inputs) const {
+    return NormaliseFeatures(features.Map(inputs));
+  }
+  // The regression targets of transitions.
+  Eigen::MatrixXd Targets(const Eigen::MatrixXd& states,
+                          const Eigen::MatrixXd& next_states) const {
+    if (options.target == Target::kNext) return next_states;
+    Eigen::MatrixXd delta = next_states - states;
+    for (int a : options.angle_dims) delta.col(a) = delta.col(a).unaryExpr(&WrapAngle);
+    return delta;
   }
 };
 
@@ -128,16 +144,31 @@ absl::StatusOr<DynamicsModel> DynamicsModel::Create(DynamicsModelOptions options
       return absl::InvalidArgumentError("input_half_width entries must be positive");
     }
   }
+  std::vector<int> angles = options.angle_dims;
+  std::sort(angles.begin(), angles.end());
+  if (std::adjacent_find(angles.begin(), angles.end()) != angles.end() ||
+      (!angles.empty() && (angles.front() < 0 || angles.back() >= options.state_dim))) {
+    return absl::InvalidArgumentError(
+        "angle_dims must name state dimensions in [0, state_dim), each once");
+  }
+  if (!angles.empty() && options.target != Target::kDelta) {
+    return absl::InvalidArgumentError(
+        "angle_dims need the delta target: a next angle is only known up to 2 pi");
+  }
+  InputFeatures features(z_dim, angles);
+  options.input_center = features.MapCenter(options.input_center);
+  options.input_half_width = features.MapHalfWidth(options.input_half_width);
+  const int kernel_inputs = features.feature_dim();
   if (!options.fit_kernel) {
     if (static_cast<int>(options.fixed.size()) != options.state_dim) {
       return absl::InvalidArgumentError("fit_kernel=false needs state_dim fixed entries");
     }
     for (const Hyperparameters& h : options.fixed) {
-      if (h.lengthscales.size() != z_dim || !PositiveFinite(h.signal_variance) ||
+      if (h.lengthscales.size() != kernel_inputs || !PositiveFinite(h.signal_variance) ||
           !PositiveFinite(h.noise_variance) || !h.lengthscales.allFinite() ||
           !(h.lengthscales.array() > 0.0).all()) {
         return absl::InvalidArgumentError(
-            "fixed hyperparameters need z_dim positive lengthscales and positive "
+            "fixed hyperparameters need kernel_inputs positive lengthscales and positive "
             "variances");
       }
     }
@@ -155,7 +186,8 @@ absl::StatusOr<DynamicsModel> DynamicsModel::Create(DynamicsModelOptions options
   state->state_dim = options.state_dim;
   state->input_dim = options.input_dim;
   state->z_dim = z_dim;
-  state->z.resize(0, z_dim);
+  state->features = std::move(features);
+  state->z.resize(0, kernel_inputs);
   state->targets.resize(0, options.state_dim);
   state->prior_mean = Eigen::VectorXd::Zero(options.state_dim);
   state->options = std::move(options);
@@ -170,6 +202,7 @@ DynamicsModel::~DynamicsModel() = default;
 int DynamicsModel::state_dim() const { return state_->state_dim; }
 int DynamicsModel::input_dim() const { return state_->input_dim; }
 int DynamicsModel::sample_count() const { return state_->n(); }
+int DynamicsModel::kernel_inputs() const { return state_->features.feature_dim(); }
 
 int64_t DynamicsModel::PeakBytes(int64_t samples, int state_dim, int input_dim,
                                  int fit_threads, int sparse_above, int max_inducing,
@@ -241,16 +274,14 @@ absl::Status DynamicsModel::CheckSamples(const Eigen::MatrixXd& states,
                                    new_rows.colwise().squaredNorm().array();
     return sum.isFinite().all() && squares.isFinite().all();
   };
-  const Eigen::MatrixXd targets = s.options.target == Target::kDelta
-                                      ? Eigen::MatrixXd(next_states - states)
-                                      : next_states;
+  const Eigen::MatrixXd targets = s.Targets(states, next_states);
   if (!sums_finite(s.targets, targets)) {
     return absl::InvalidArgumentError(
         "the targets' mean or spread over all samples would overflow: values too large");
   }
   Eigen::MatrixXd z(m, s.z_dim);
   z << states, inputs;
-  if (!sums_finite(s.z, z)) {
+  if (!sums_finite(s.z, s.features.Map(z))) {
     return absl::InvalidArgumentError(
         "the inputs' spread over all samples would overflow: values too large");
   }
@@ -267,12 +298,10 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
   if (m == 0) return absl::OkStatus();
   Eigen::MatrixXd z(m, s.z_dim);
   z << states, inputs;
-  const Eigen::MatrixXd t = s.options.target == Target::kDelta
-                                ? Eigen::MatrixXd(next_states - states)
-                                : next_states;
+  const Eigen::MatrixXd t = s.Targets(states, next_states);
   const int n = s.n();
   s.z.conservativeResize(n + m, Eigen::NoChange);
-  s.z.bottomRows(m) = z;
+  s.z.bottomRows(m) = s.features.Map(z);
   s.targets.conservativeResize(n + m, Eigen::NoChange);
   s.targets.bottomRows(m) = t;
   s.samples_since_fit += static_cast<int>(m);
@@ -349,7 +378,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
     const Eigen::RowVectorXd mean = s.z.colwise().mean();
     const Eigen::RowVectorXd std =
         ((s.z.rowwise() - mean).colwise().squaredNorm() / n).cwiseSqrt();
-    for (int i = 0; i < s.z_dim; ++i) {
+    for (Eigen::Index i = 0; i < s.z.cols(); ++i) {
       if (!std::isfinite(s.options.input_center(i))) s.options.input_center(i) = mean(i);
       if (!std::isfinite(s.options.input_half_width(i))) {
         s.options.input_half_width(i) =
@@ -367,7 +396,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
           .cwiseSqrt()
           .transpose()
           .cwiseMax(std::sqrt(s.options.measurement_noise_variance));
-  const Eigen::MatrixXd zn = s.Normalise(s.z);
+  const Eigen::MatrixXd zn = s.NormaliseFeatures(s.z);
   // Long sessions: hyperparameters from a strided subset, then sparse models on
   // all the data.
   const bool sparse = s.options.sparse_above > 0 && n > s.options.sparse_above;
@@ -419,7 +448,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
       initial = *warm;
     } else {
       initial.signal_variance = 1.0;
-      initial.lengthscales = Eigen::VectorXd::Ones(s.z_dim);
+      initial.lengthscales = Eigen::VectorXd::Ones(s.z.cols());
       initial.noise_variance = std::max(noise, 1e-2);
       if (!s.options.fit_noise) initial.noise_variance = noise;
     }
@@ -513,11 +542,12 @@ absl::Status DynamicsModel::SeedWarmStart(std::vector<Hyperparameters> data_unit
                                                    data_units.size()));
   }
   for (const Hyperparameters& h : data_units) {
-    if (h.lengthscales.size() != s.z_dim || !PositiveFinite(h.signal_variance) ||
+    if (h.lengthscales.size() != s.z.cols() || !PositiveFinite(h.signal_variance) ||
         !PositiveFinite(h.noise_variance) ||
         !(h.lengthscales.array().isFinite() && h.lengthscales.array() > 0.0).all()) {
       return absl::InvalidArgumentError(
-          "SeedWarmStart: need z_dim positive finite lengthscales and positive finite "
+          "SeedWarmStart: need kernel_inputs positive finite lengthscales and positive "
+          "finite "
           "variances");
     }
   }
@@ -556,6 +586,9 @@ void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
   const Eigen::MatrixXd zn = s.Normalise(z);
   const Eigen::RowVectorXd inv_h = s.half_width.cwiseInverse().transpose();
   const bool delta = s.options.target == Target::kDelta;
+  // Jacobians w.r.t. the normalised features (m x kernel_inputs per output),
+  // pulled back to z below.
+  std::vector<Eigen::MatrixXd> d_mean, d_var;
   Eigen::VectorXd mu, var;
   Eigen::MatrixXd dmu, dvar;
   for (int j = 0; j < sd; ++j) {
@@ -574,14 +607,22 @@ void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
       if (delta) mean->col(j) += z.col(j);
     }
     if (variance != nullptr) variance->col(j) = sj * sj * var;
-    for (Eigen::Index i = 0; i < m; ++i) {
-      if (mean_jacobians != nullptr) {
-        (*mean_jacobians)[i].row(j) = sj * dmu.row(i).cwiseProduct(inv_h);
-        if (delta) (*mean_jacobians)[i](j, j) += 1.0;
-      }
-      if (variance_jacobians != nullptr) {
-        (*variance_jacobians)[i].row(j) = sj * sj * dvar.row(i).cwiseProduct(inv_h);
-      }
+    if (mean_jacobians != nullptr) d_mean.push_back(sj * dmu * inv_h.asDiagonal());
+    if (variance_jacobians != nullptr) {
+      d_var.push_back(sj * sj * dvar * inv_h.asDiagonal());
+    }
+  }
+  // Row i of the Jacobians: d / dz = (d / d features) (d features / dz).
+  Eigen::MatrixXd rows(sd, s.z.cols());
+  for (Eigen::Index i = 0; i < m; ++i) {
+    if (mean_jacobians != nullptr) {
+      for (int j = 0; j < sd; ++j) rows.row(j) = d_mean[j].row(i);
+      (*mean_jacobians)[i] = s.features.PullBack(rows, z.row(i));
+      if (delta) (*mean_jacobians)[i].diagonal().head(sd).array() += 1.0;
+    }
+    if (variance_jacobians != nullptr) {
+      for (int j = 0; j < sd; ++j) rows.row(j) = d_var[j].row(i);
+      (*variance_jacobians)[i] = s.features.PullBack(rows, z.row(i));
     }
   }
 }
@@ -590,7 +631,8 @@ namespace {
 
 // A point set in the model's normalised inputs with L \ K(X, z) of every output.
 struct GpPreparedPoints final : DynamicsPredictor::PreparedPoints {
-  Eigen::MatrixXd normalised;            // m x z_dim
+  Eigen::MatrixXd z;                     // m x z_dim, as given
+  Eigen::MatrixXd normalised;            // m x kernel_inputs
   std::vector<Eigen::MatrixXd> factors;  // per output: n x m
 };
 
@@ -605,6 +647,7 @@ std::unique_ptr<DynamicsPredictor::PreparedPoints> DynamicsModel::PreparePoints(
   const State& s = *state_;
   if (!s.fitted || s.sparse || z.cols() != s.z_dim) return nullptr;
   auto prepared = std::make_unique<GpPreparedPoints>();
+  prepared->z = z;
   prepared->normalised = s.Normalise(z);
   for (const GpModel& gp : s.gps) {
     prepared->factors.push_back(gp.CrossFactor(prepared->normalised));
@@ -645,7 +688,7 @@ Eigen::MatrixXd DynamicsModel::PosteriorCovarianceGradient(
     const PreparedPoints& a, const std::vector<CovarianceTerm>& terms) const {
   const State& s = *state_;
   const GpPreparedPoints& pa = AsGp(a);
-  Eigen::MatrixXd grad = Eigen::MatrixXd::Zero(pa.normalised.rows(), s.z_dim);
+  Eigen::MatrixXd grad = Eigen::MatrixXd::Zero(pa.normalised.rows(), s.z.cols());
   for (int j = 0; j < s.state_dim; ++j) {
     std::vector<GpModel::CovarianceTerm> gp_terms;
     for (const CovarianceTerm& t : terms) {
@@ -655,8 +698,14 @@ Eigen::MatrixXd DynamicsModel::PosteriorCovarianceGradient(
     grad += s.out_std(j) * s.out_std(j) *
             s.gps[j].PosteriorCovarianceGradient(pa.normalised, gp_terms);
   }
-  // Normalised inputs: d / dz = (d / dz_n) / half_width.
-  return grad * s.half_width.cwiseInverse().asDiagonal();
+  // Normalised features: d / df = (d / df_n) / half_width; then d / dz.
+  grad = grad * s.half_width.cwiseInverse().asDiagonal();
+  if (s.features.angles().empty()) return grad;
+  Eigen::MatrixXd out(grad.rows(), s.z_dim);
+  for (Eigen::Index i = 0; i < grad.rows(); ++i) {
+    out.row(i) = s.features.PullBack(grad.row(i), pa.z.row(i));
+  }
+  return out;
 }
 
 Eigen::VectorXd DynamicsModel::prior_means() const { return state_->prior_mean; }

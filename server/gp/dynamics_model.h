@@ -25,14 +25,20 @@ struct DynamicsModelOptions {
   int state_dim = 0;
   int input_dim = 0;
   Target target = Target::kDelta;
+  // State dimensions that are angles (each once, in [0, state_dim); needs
+  // kDelta): the GPs see (sin, cos) of each (InputFeatures), so hyperparameters
+  // have kernel_inputs() lengthscales, and regress the difference wrapped to
+  // (-pi, pi]. The mean stays continuous: x + the predicted difference, so a
+  // state and the same state plus 2 pi predict the same up to that 2 pi.
+  std::vector<int> angle_dims;
   // Known measurement noise variance of the state (> 0).
   double measurement_noise_variance = 0.0;
   // Fit the target's noise variance (floor: measurement_noise_variance). If false
   // it is fixed at measurement_noise_variance for kNext and twice that for kDelta
   // (both measurements of a difference are noisy).
   bool fit_noise = true;
-  // Fit kernel hyperparameters by ML-II; if false, `fixed` (state_dim entries)
-  // is used as is.
+  // Fit kernel hyperparameters by ML-II; if false, `fixed` (state_dim entries,
+  // each with kernel_inputs() lengthscales) is used as is.
   // (Implementation note: `fixed` is in data units and used as is *including* its
   // noise_variance; fit_noise is then ignored.)
   bool fit_kernel = true;
@@ -79,6 +85,8 @@ class DynamicsModel final : public DynamicsPredictor {
 
   int state_dim() const override;
   int input_dim() const override;
+  // Inputs of each GP's kernel: state_dim + input_dim + one per angle.
+  int kernel_inputs() const;
 
   // Appends transitions (rows of the three matrices) and refreshes the prior
   // means. Before the first Refit() the data is only kept; after it each sample
