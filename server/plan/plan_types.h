@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "server/plan/safe_box.h"
@@ -43,6 +44,9 @@ struct PlanOptions {
   // (with the input bounds, the box of its reference set).
   Eigen::VectorXd state_lower;
   Eigen::VectorXd state_upper;
+  // State dimensions that are angles (as the model's angle_dims): sep steers to
+  // the turn of its target nearest the current state.
+  std::vector<int> angle_dims;
   int max_iterations = 100;  // Ipopt iterations per start
   int restarts = 1;          // random starts on top of the warm start
   double tolerance = 1e-4;   // Ipopt tol

@@ -6,6 +6,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "common/angles.h"
 #include "server/plan/entropy_objective.h"
 #include "server/plan/entropy_search.h"
 #include "server/plan/rollout.h"
@@ -58,7 +59,9 @@ absl::StatusOr<Plan> PlanSeparated(const gp::DynamicsPredictor& model,
     return absl::InternalError(
         "sep: the model's variance is not finite anywhere in the search box");
   }
-  const Eigen::VectorXd target = search.z.head(dx);
+  Eigen::VectorXd target = search.z.head(dx);
+  // An angle's target is any of its turns: the nearest one is the shortest way.
+  for (int a : options.angle_dims) target(a) = x0(a) + WrapAngle(target(a) - x0(a));
   const Eigen::VectorXd target_input = search.z.tail(du);
 
   // 2. Control: steer towards x*.

@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "common/angles.h"
 #include "server/gp/dynamics_model.h"
 #include "server/gp/hyperparameter_fit.h"
 #include "server/gp/sparse_gp_model.h"
@@ -101,7 +102,7 @@ absl::Status CheckPositive(absl::string_view field, double value, double min,
 absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& config,
                             v1::KernelConfig* kernel) {
   const std::string kpath = Field(path, "kernel");
-  const int z_dim = config.state_dim() + config.input_dim();
+  const int kernel_inputs = KernelInputs(config);
   if (!kernel->fit()) {
     if (kernel->fixed_size() != config.state_dim()) {
       return Invalid(
@@ -111,7 +112,7 @@ absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& con
     }
     for (int i = 0; i < kernel->fixed_size(); ++i) {
       if (absl::Status s = ValidateHyperparameters(Indexed(kpath, "fixed", i),
-                                                   kernel->fixed(i), z_dim);
+                                                   kernel->fixed(i), kernel_inputs);
           !s.ok()) {
         return s;
       }
@@ -215,6 +216,30 @@ absl::Status ValidateSparse(absl::string_view path, v1::SessionConfig* config) {
   return absl::OkStatus();
 }
 
+// angle_dims: state dimensions, each once, with the delta target.
+absl::Status ValidateAngles(absl::string_view path, const v1::SessionConfig& config) {
+  std::vector<bool> seen(config.state_dim(), false);
+  for (int i = 0; i < config.angle_dims_size(); ++i) {
+    const int a = config.angle_dims(i);
+    if (a < 0 || a >= config.state_dim()) {
+      return Invalid(Indexed(path, "angle_dims", i),
+                     absl::StrCat("must be a state dimension in [0, ", config.state_dim(),
+                                  "), got ", a));
+    }
+    if (seen[a]) {
+      return Invalid(Indexed(path, "angle_dims", i),
+                     absl::StrCat("names state ", a, " twice"));
+    }
+    seen[a] = true;
+  }
+  if (config.angle_dims_size() > 0 && config.target() == v1::TARGET_NEXT) {
+    return Invalid(Field(path, "target"),
+                   "angle_dims need TARGET_DELTA: a next angle is only known up to a "
+                   "turn, its difference is not");
+  }
+  return absl::OkStatus();
+}
+
 // SafetyConfig: 0 or state_dim intervals; the margin filled in (2) when a box
 // is set.
 absl::Status ValidateSafety(absl::string_view path, v1::SessionConfig* config) {
@@ -234,6 +259,18 @@ absl::Status ValidateSafety(absl::string_view path, v1::SessionConfig* config) {
       return s;
     }
   }
+  for (int a : config->angle_dims()) {
+    if (a < 0 || a >= safety->state_bounds_size()) continue;  // ValidateAngles says
+    const v1::Interval& b = safety->state_bounds(a);
+    if (b.upper() - b.lower() < 2.0 * kPi) {
+      return Invalid(Indexed(spath, "state_bounds", a),
+                     absl::StrCat("state ", a,
+                                  " is an angle (angle_dims): its values wrap, so a box "
+                                  "narrower than one turn cannot hold it; give at least "
+                                  "[-pi, pi] (it then constrains nothing), got [",
+                                  b.lower(), ", ", b.upper(), "]"));
+    }
+  }
   if (safety->has_margin() &&
       !(std::isfinite(safety->margin()) && safety->margin() >= 0.0 &&
         safety->margin() <= kMaxSafetyMargin)) {
@@ -249,19 +286,23 @@ absl::Status ValidateSafety(absl::string_view path, v1::SessionConfig* config) {
 
 }  // namespace
 
+int KernelInputs(const v1::SessionConfig& config) {
+  return config.state_dim() + config.input_dim() + config.angle_dims_size();
+}
+
 absl::Status ValidateHyperparameters(absl::string_view path,
                                      const v1::Hyperparameters& hyperparameters,
-                                     int z_dim) {
+                                     int kernel_inputs) {
   const v1::Hyperparameters& h = hyperparameters;
   if (absl::Status s = CheckPositive(Field(path, "signal_variance"), h.signal_variance(),
                                      kMinHyperVariance, kMaxHyperVariance);
       !s.ok()) {
     return s;
   }
-  if (h.lengthscales_size() != z_dim) {
+  if (h.lengthscales_size() != kernel_inputs) {
     return Invalid(Field(path, "lengthscales"),
-                   absl::StrCat("must have state_dim + input_dim (", z_dim,
-                                ") entries, got ", h.lengthscales_size()));
+                   absl::StrCat("must have state_dim + input_dim + one per angle (",
+                                kernel_inputs, ") entries, got ", h.lengthscales_size()));
   }
   for (int l = 0; l < h.lengthscales_size(); ++l) {
     if (absl::Status s =
@@ -327,6 +368,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
                 "the noise variance can only be fitted when kernel.fit is true (with "
                 "kernel.fit false, kernel.fixed[i].noise_variance is used)"));
   }
+  if (dims_ok) problems.Add(ValidateAngles(path, *config));
   if (dims_ok) problems.Add(ValidateKernel(path, *config, config->mutable_kernel()));
 
   if (config->target() == v1::TARGET_UNSPECIFIED) config->set_target(v1::TARGET_DELTA);

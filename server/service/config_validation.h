@@ -72,12 +72,16 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config,
 
 // One output's hyperparameters in data units (kernel.fixed[i], or the saved ones
 // of a SessionArchive): signal_variance and noise_variance in [1e-100, 1e100],
-// `z_dim` (state_dim + input_dim) lengthscales in [1e-50, 1e50] (wide enough for
+// `kernel_inputs` (KernelInputs) lengthscales in [1e-50, 1e50] (wide enough for
 // every fit the server makes, value_ranges.h). INVALID_ARGUMENT naming
 // the field under `path`, e.g. "config.kernel.fixed[1].lengthscales[2]".
 absl::Status ValidateHyperparameters(absl::string_view path,
                                      const v1::Hyperparameters& hyperparameters,
-                                     int z_dim);
+                                     int kernel_inputs);
+
+// Lengthscales of each output's kernel: state_dim + input_dim + one per angle
+// (its sine and cosine).
+int KernelInputs(const v1::SessionConfig& config);
 
 // Convenience: a validated copy with defaults filled.
 absl::StatusOr<v1::SessionConfig> ValidatedSessionConfig(

@@ -55,10 +55,10 @@ absl::StatusOr<v1::SessionConfig> ValidateSessionArchive(
           hpath, absl::StrCat("must be empty or have state_dim (", config->state_dim(),
                               ") entries, got ", archive.hyperparameters_size()));
     }
-    const int z_dim = config->state_dim() + config->input_dim();
     for (int i = 0; i < archive.hyperparameters_size(); ++i) {
-      if (absl::Status s = ValidateHyperparameters(absl::StrCat(hpath, "[", i, "]"),
-                                                   archive.hyperparameters(i), z_dim);
+      if (absl::Status s =
+              ValidateHyperparameters(absl::StrCat(hpath, "[", i, "]"),
+                                      archive.hyperparameters(i), KernelInputs(*config));
           !s.ok()) {
         return s;
       }

@@ -5,6 +5,12 @@
 #include "server/service/strategy_names.h"
 
 namespace excite::service {
+namespace {
+
+// Beyond Ipopt's infinity (1e19): a bound that is none.
+constexpr double kNoBound = 1e20;
+
+}  // namespace
 
 gp::Hyperparameters FromProto(const v1::Hyperparameters& proto) {
   gp::Hyperparameters h;
@@ -32,6 +38,7 @@ gp::DynamicsModelOptions ModelOptionsFromConfig(const v1::SessionConfig& config)
   options.input_dim = config.input_dim();
   options.target =
       config.target() == v1::TARGET_NEXT ? gp::Target::kNext : gp::Target::kDelta;
+  options.angle_dims.assign(config.angle_dims().begin(), config.angle_dims().end());
   options.measurement_noise_variance = config.noise().variance();
   options.fit_noise = config.noise().fit();
   options.fit_kernel = config.kernel().fit();
@@ -115,6 +122,7 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
   if (sep.search_iterations() != 0) {
     options.sep.search_iterations = sep.search_iterations();
   }
+  options.angle_dims.assign(config.angle_dims().begin(), config.angle_dims().end());
   const v1::SafetyConfig& safety = config.safety();
   if (safety.state_bounds_size() == config.state_dim()) {
     options.safe_box.lower.resize(config.state_dim());
@@ -122,6 +130,12 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
     for (int i = 0; i < safety.state_bounds_size(); ++i) {
       options.safe_box.lower(i) = safety.state_bounds(i).lower();
       options.safe_box.upper(i) = safety.state_bounds(i).upper();
+    }
+    // An angle wraps, so no box holds it (validation saw a full turn): Ipopt
+    // takes bounds beyond 1e19 as none.
+    for (int a : options.angle_dims) {
+      options.safe_box.lower(a) = -kNoBound;
+      options.safe_box.upper(a) = kNoBound;
     }
     if (safety.has_margin()) options.safe_box.margin = safety.margin();
   }

@@ -75,7 +75,7 @@ std::string ProtoStoredFormat::EncodeFit(const session::SavedFit& fit) const {
 
 std::optional<session::SavedFit> ProtoStoredFormat::DecodeFit(const std::string& bytes,
                                                               int state_dim,
-                                                              int z_dim) const {
+                                                              int kernel_inputs) const {
   std::optional<ArchivedFit> saved = DecodeSavedHyperparameters(bytes);
   if (!saved.has_value() || saved->hyperparameters.empty() ||
       static_cast<int>(saved->hyperparameters.size()) != state_dim) {
@@ -84,7 +84,7 @@ std::optional<session::SavedFit> ProtoStoredFormat::DecodeFit(const std::string&
   session::SavedFit result;
   result.fitted_samples = saved->fitted_samples;
   for (const v1::Hyperparameters& h : saved->hyperparameters) {
-    if (h.lengthscales_size() != z_dim) return std::nullopt;
+    if (h.lengthscales_size() != kernel_inputs) return std::nullopt;
     result.hyperparameters.push_back(FromProto(h));
   }
   return result;

@@ -51,7 +51,7 @@ class ProtoStoredFormat final : public session::StoredFormat {
       const std::string& bytes) const override;
   std::string EncodeFit(const session::SavedFit& fit) const override;
   std::optional<session::SavedFit> DecodeFit(const std::string& bytes, int state_dim,
-                                             int z_dim) const override;
+                                             int kernel_inputs) const override;
 };
 
 }  // namespace excite::service

@@ -153,9 +153,8 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
   try {
     gp::DynamicsModelOptions options = config.model;
     if (config.refit.never && config.refit.fit_kernel) {
-      if (std::optional<SavedFit> saved =
-              format->DecodeFit(record.hyperparameters, config.state_dim,
-                                config.state_dim + config.input_dim)) {
+      if (std::optional<SavedFit> saved = format->DecodeFit(
+              record.hyperparameters, config.state_dim, config.kernel_inputs())) {
         options.fit_kernel = false;
         options.fit_noise = false;
         options.fixed = std::move(saved->hyperparameters);
@@ -200,9 +199,8 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
       // The model is rebuilt with the last saved fit while it is current, and
       // the next refit starts from it (a cache: unusable bytes just mean a cold
       // start).
-      if (std::optional<SavedFit> saved =
-              format->DecodeFit(record.hyperparameters, config.state_dim,
-                                config.state_dim + config.input_dim)) {
+      if (std::optional<SavedFit> saved = format->DecodeFit(
+              record.hyperparameters, config.state_dim, config.kernel_inputs())) {
         const int fitted = static_cast<int>(std::min<int64_t>(saved->fitted_samples, n));
         if (absl::Status s =
                 model->SeedWarmStart(std::move(saved->hyperparameters), fitted);
@@ -286,8 +284,8 @@ SessionDescription Session::DescribeStored(const store::SessionListing& listing,
   absl::StatusOr<SessionSpec> spec = format.DecodeConfig(record.config);
   std::optional<SavedFit> saved;
   if (spec.ok()) {
-    saved = format.DecodeFit(record.hyperparameters, spec->state_dim,
-                             spec->state_dim + spec->input_dim);
+    saved =
+        format.DecodeFit(record.hyperparameters, spec->state_dim, spec->kernel_inputs());
   }
   if (saved.has_value()) {
     for (gp::Hyperparameters& h : saved->hyperparameters) {

@@ -33,6 +33,12 @@ struct SessionSpec {
   // The validated config as the store keeps it: bytes only the API layer reads
   // (described back to clients unchanged).
   std::string config;
+
+  // Lengthscales of each output's kernel: one per state and input, one more per
+  // angle (its sine and cosine).
+  int kernel_inputs() const {
+    return state_dim + input_dim + static_cast<int>(model.angle_dims.size());
+  }
 };
 
 }  // namespace excite::session

@@ -31,9 +31,10 @@ class StoredFormat {
   // SessionRecord::hyperparameters.
   virtual std::string EncodeFit(const SavedFit& fit) const = 0;
   // nullopt if `bytes` are empty, do not parse, or do not hold `state_dim`
-  // outputs of `z_dim` lengthscales each (a cache: the session fits anew).
+  // outputs of `kernel_inputs` lengthscales each (SessionSpec::kernel_inputs();
+  // a cache: the session fits anew).
   virtual std::optional<SavedFit> DecodeFit(const std::string& bytes, int state_dim,
-                                            int z_dim) const = 0;
+                                            int kernel_inputs) const = 0;
 };
 
 }  // namespace excite::session

@@ -223,6 +223,45 @@ TEST(ConfigValidationTest, FixedKernel) {
   ExpectInvalid(c, "config.kernel.fixed", "must be empty when kernel.fit is true");
 }
 
+// angle_dims: state dimensions, each once, with the delta target; an angle adds
+// a lengthscale (its sine and cosine) and cannot be held by a safe box.
+TEST(ConfigValidationTest, Angles) {
+  v1::SessionConfig c = Valid();
+  c.add_angle_dims(0);
+  EXPECT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(KernelInputs(c), 4);
+  v1::SessionConfig bad = c;
+  bad.add_angle_dims(2);
+  ExpectInvalid(bad, "config.angle_dims[1]", "state dimension in [0, 2), got 2");
+  bad = c;
+  bad.add_angle_dims(0);
+  ExpectInvalid(bad, "config.angle_dims[1]", "names state 0 twice");
+  bad = c;
+  bad.set_target(v1::TARGET_NEXT);
+  ExpectInvalid(bad, "config.target", "angle_dims need TARGET_DELTA");
+
+  v1::SessionConfig fixed = FixedKernel();
+  fixed.add_angle_dims(0);
+  ExpectInvalid(fixed, "config.kernel.fixed[0].lengthscales",
+                "one per angle (4) entries, got 3");
+  for (int i = 0; i < 2; ++i)
+    fixed.mutable_kernel()->mutable_fixed(i)->add_lengthscales(1);
+  EXPECT_TRUE(ValidateSessionConfig(&fixed).ok());
+
+  v1::SessionConfig safe = c;
+  v1::SafetyConfig* safety = safe.mutable_safety();
+  v1::Interval* angle = safety->add_state_bounds();
+  angle->set_lower(-1.0);
+  angle->set_upper(1.0);
+  v1::Interval* rate = safety->add_state_bounds();
+  rate->set_lower(-5.0);
+  rate->set_upper(5.0);
+  ExpectInvalid(safe, "config.safety.state_bounds[0]", "narrower than one turn");
+  angle->set_lower(-3.2);
+  angle->set_upper(3.2);
+  EXPECT_TRUE(ValidateSessionConfig(&safe).ok());
+}
+
 // kernel.fit unset: fitted when no fixed hyperparameters are given (a minimal
 // config works), fixed when they are; the filled-in value is explicit.
 TEST(ConfigValidationTest, UnsetKernelFitDependsOnFixed) {

@@ -88,8 +88,12 @@ class SessionArchiveTest : public ServiceTest {
 TEST_F(SessionArchiveTest, RoundTripKeepsConfigSamplesHyperparametersAndPredictions) {
   v1::SessionConfig refit_never = PendulumConfig();
   refit_never.mutable_refit()->set_never(true);
+  v1::SessionConfig angles = refit_never;  // four lengthscales: sin, cos, rate, torque
+  angles.add_angle_dims(0);
   for (const auto& [id, config] : std::vector<std::pair<std::string, v1::SessionConfig>>{
-           {"fixed-kernel", FixedKernelConfig()}, {"refit-never", refit_never}}) {
+           {"fixed-kernel", FixedKernelConfig()},
+           {"refit-never", refit_never},
+           {"angles", angles}}) {
     SCOPED_TRACE(id);
     const v1::Session created = Create(id, config);
     const std::vector<v1::Transition> first = PendulumTransitions(20, 0, 31);
@@ -99,6 +103,8 @@ TEST_F(SessionArchiveTest, RoundTripKeepsConfigSamplesHyperparametersAndPredicti
     ASSERT_TRUE(client_->PlanInputs(created.name(), {0.1, -0.2}).ok());
     const v1::Session before = *client_->GetSession(created.name());
     ASSERT_EQ(before.outputs_size(), 2);
+    EXPECT_EQ(before.outputs(0).hyperparameters().lengthscales_size(),
+              3 + config.angle_dims_size());
     absl::StatusOr<v1::PredictResponse> predicted_before =
         client_->Predict(PredictAt(created.name()));
     ASSERT_TRUE(predicted_before.ok()) << predicted_before.status();
@@ -140,6 +146,29 @@ TEST_F(SessionArchiveTest, RoundTripKeepsConfigSamplesHyperparametersAndPredicti
       EXPECT_NEAR(predicted_after->variance(i), predicted_before->variance(i), 1e-9) << i;
     }
     ExpectSameHyperparameters(*client_->GetSession(created.name()), before);
+  }
+}
+
+// With angle_dims a state turned by 2 pi k predicts through the API as the
+// state itself: the same variance and rate, the angle shifted by 2 pi k.
+TEST_F(SessionArchiveTest, AnAngleTurnedByWholeTurnsPredictsTheSame) {
+  v1::SessionConfig config = PendulumConfig();
+  config.add_angle_dims(0);
+  const std::string name = Create("angles", config).name();
+  Add(name, {PendulumTransitions(30, 0, 51)});
+  ASSERT_TRUE(client_->PlanInputs(name, {0.1, -0.2}).ok());
+  const v1::PredictRequest request = PredictAt(name);
+  v1::PredictRequest turned = request;
+  turned.set_inputs(0, request.inputs(0) + 2 * M_PI);
+  turned.set_inputs(3, request.inputs(3) - 6 * M_PI);
+  absl::StatusOr<v1::PredictResponse> a = client_->Predict(request);
+  absl::StatusOr<v1::PredictResponse> b = client_->Predict(turned);
+  ASSERT_TRUE(a.ok() && b.ok()) << a.status() << b.status();
+  ASSERT_EQ(a->mean_size(), 4);
+  const double shift[4] = {2 * M_PI, 0.0, -6 * M_PI, 0.0};
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(b->mean(i) - a->mean(i), shift[i], 1e-9) << i;
+    EXPECT_NEAR(b->variance(i), a->variance(i), 1e-9 * a->variance(i)) << i;
   }
 }
 
