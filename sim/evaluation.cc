@@ -7,6 +7,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "common/angles.h"
 #include "sim/portable_random.h"
 
 namespace excite::sim {
@@ -101,8 +102,29 @@ absl::StatusOr<EvaluationSet> MakeEvaluationSet(const Plant& plant, const Box& r
   return set;
 }
 
+Eigen::MatrixXd PredictionErrors(const Eigen::MatrixXd& predicted,
+                                 const Eigen::MatrixXd& truth,
+                                 const std::vector<int>& angle_dims) {
+  Eigen::MatrixXd errors = predicted - truth;
+  for (int a : angle_dims) errors.col(a) = errors.col(a).unaryExpr(&WrapAngle);
+  return errors;
+}
+
+Eigen::MatrixXd OnTheCircle(const Eigen::MatrixXd& states, const Eigen::VectorXd& lower,
+                            const std::vector<int>& angle_dims) {
+  Eigen::MatrixXd out = states;
+  for (int a : angle_dims) {
+    for (Eigen::Index i = 0; i < out.rows(); ++i) {
+      const double turns = std::floor((out(i, a) - lower(a)) / (2.0 * kPi));
+      out(i, a) -= 2.0 * kPi * turns;
+    }
+  }
+  return out;
+}
+
 absl::StatusOr<double> Rmse(const Eigen::MatrixXd& predicted_mean,
-                            const Eigen::MatrixXd& true_next_states) {
+                            const Eigen::MatrixXd& true_next_states,
+                            const std::vector<int>& angle_dims) {
   if (predicted_mean.rows() != true_next_states.rows() ||
       predicted_mean.cols() != true_next_states.cols()) {
     return absl::InvalidArgumentError(
@@ -113,18 +135,22 @@ absl::StatusOr<double> Rmse(const Eigen::MatrixXd& predicted_mean,
   if (predicted_mean.rows() == 0) {
     return absl::InvalidArgumentError("RMSE of an empty evaluation set");
   }
-  const double squared_sum = (predicted_mean - true_next_states).squaredNorm();
+  const double squared_sum =
+      PredictionErrors(predicted_mean, true_next_states, angle_dims).squaredNorm();
   return std::sqrt(squared_sum / static_cast<double>(predicted_mean.rows()));
 }
 
-absl::StatusOr<Eigen::VectorXd> RmsePerDimension(
-    const Eigen::MatrixXd& predicted_mean, const Eigen::MatrixXd& true_next_states) {
+absl::StatusOr<Eigen::VectorXd> RmsePerDimension(const Eigen::MatrixXd& predicted_mean,
+                                                 const Eigen::MatrixXd& true_next_states,
+                                                 const std::vector<int>& angle_dims) {
   // Rmse() checks the shapes and rows.
   if (absl::StatusOr<double> total = Rmse(predicted_mean, true_next_states);
       !total.ok()) {
     return total.status();
   }
-  return ((predicted_mean - true_next_states).colwise().squaredNorm() /
+  return (PredictionErrors(predicted_mean, true_next_states, angle_dims)
+              .colwise()
+              .squaredNorm() /
           static_cast<double>(predicted_mean.rows()))
       .cwiseSqrt()
       .transpose();

@@ -4,6 +4,7 @@
 #include <Eigen/Dense>
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "sim/plants/plant.h"
@@ -51,14 +52,31 @@ absl::StatusOr<EvaluationSet> MakeEvaluationSet(const Plant& plant, const Box& r
 // averaged) and averaged over the points. The paper (Section 6) says only "RMSE over
 // a grid of uniformly random states and inputs"; this is our reading of it, in
 // state units. INVALID_ARGUMENT if the shapes differ or there are no rows.
+// An angle's error (angle_dims: state dimensions that are angles) is the shorter
+// way round the circle.
 absl::StatusOr<double> Rmse(const Eigen::MatrixXd& predicted_mean,
-                            const Eigen::MatrixXd& true_next_states);
+                            const Eigen::MatrixXd& true_next_states,
+                            const std::vector<int>& angle_dims = {});
 
 // The same per state dimension j: sqrt( (1/P) * sum_p (mean_pj - f(z_p)_j)^2 ), so
 // that RMSE^2 is the sum of their squares: which dimensions the error comes from.
 // Errors as Rmse().
 absl::StatusOr<Eigen::VectorXd> RmsePerDimension(const Eigen::MatrixXd& predicted_mean,
-                                                 const Eigen::MatrixXd& true_next_states);
+                                                 const Eigen::MatrixXd& true_next_states,
+                                                 const std::vector<int>& angle_dims = {});
+
+// predicted - truth (rows of states), each angle's column (angle_dims) wrapped to
+// (-pi, pi]: the shorter way round.
+Eigen::MatrixXd PredictionErrors(const Eigen::MatrixXd& predicted,
+                                 const Eigen::MatrixXd& truth,
+                                 const std::vector<int>& angle_dims);
+
+// `states` (one per row) with each angle's column (angle_dims) moved by whole
+// turns into [lower, lower + 2 pi): where on the circle each state is, counted
+// from the turn that starts at `lower` (a region's or a box's lower bounds), for
+// coverage and boxes.
+Eigen::MatrixXd OnTheCircle(const Eigen::MatrixXd& states, const Eigen::VectorXd& lower,
+                            const std::vector<int>& angle_dims);
 
 // The joint coverage is computed up to this state dimension (bins^dim cells).
 inline constexpr int kMaxJointCoverageDim = 4;

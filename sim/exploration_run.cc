@@ -53,6 +53,8 @@ class ExplorationRun {
         dx_(plant.state_dim()),
         du_(plant.input_dim()),
         region_(BoxOf(config.session().state_bounds())),
+        angle_dims_(config.session().angle_dims().begin(),
+                    config.session().angle_dims().end()),
         input_box_(BoxOf(config.session().input_bounds())),
         noise_stddev_(std::sqrt(config.session().noise().variance())),
         noise_random_(config.session().seed(), 1),
@@ -82,6 +84,7 @@ class ExplorationRun {
   const int dx_;
   const int du_;
   const Box region_;
+  const std::vector<int> angle_dims_;  // state dimensions on the circle
   const Box input_box_;
   const double noise_stddev_;
   PortableRandom noise_random_;
@@ -158,8 +161,9 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   for (size_t n = 0; n < visited_.size(); ++n) {
     visited.row(static_cast<Eigen::Index>(n)) = visited_[n].transpose();
   }
-  absl::StatusOr<Coverage> coverage = ComputeCoverage(
-      visited, region_, evaluation.marginal_bins(), evaluation.joint_bins());
+  absl::StatusOr<Coverage> coverage =
+      ComputeCoverage(OnTheCircle(visited, region_.lower, angle_dims_), region_,
+                      evaluation.marginal_bins(), evaluation.joint_bins());
   if (!coverage.ok()) return Annotate(coverage.status(), "coverage");
 
   summary_.system = config_.system();
@@ -183,7 +187,8 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
       safe.lower(j) = safety.state_bounds(j).lower();
       safe.upper(j) = safety.state_bounds(j).upper();
     }
-    summary_.left_safe_box = FractionOutside(visited, safe);
+    summary_.left_safe_box =
+        FractionOutside(OnTheCircle(visited, safe.lower, angle_dims_), safe);
   }
   summary_.wall_s = MillisecondsSince(start) / 1000.0;
   return summary_;
@@ -363,10 +368,10 @@ absl::Status ExplorationRun::Evaluate() {
   const Eigen::MatrixXd mean = Eigen::Map<
       const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
       reply->mean().data(), points, dx_);
-  absl::StatusOr<double> rmse = Rmse(mean, evaluation_set_.next_states);
+  absl::StatusOr<double> rmse = Rmse(mean, evaluation_set_.next_states, angle_dims_);
   if (!rmse.ok()) return rmse.status();
   absl::StatusOr<Eigen::VectorXd> per_dimension =
-      RmsePerDimension(mean, evaluation_set_.next_states);
+      RmsePerDimension(mean, evaluation_set_.next_states, angle_dims_);
   if (!per_dimension.ok()) return per_dimension.status();
   summary_.final_rmse_per_dimension.assign(per_dimension->begin(), per_dimension->end());
   summary_.rmse_history.push_back({samples_, *rmse});

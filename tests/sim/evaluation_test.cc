@@ -66,6 +66,48 @@ TEST(RmseTest, HandComputed) {
   EXPECT_FALSE(RmsePerDimension(predicted, Eigen::MatrixXd(2, 3)).ok());
 }
 
+// An angle's error is the shorter way round: 3.1 against -3.1 is 0.083 off,
+// not 6.2, and a prediction one turn off is exact.
+TEST(RmseTest, AnglesAreComparedOnTheCircle) {
+  Eigen::MatrixXd predicted(2, 2), truth(2, 2);
+  predicted << 3.1, 1.0,  //
+      0.5 + 2 * M_PI, 2.0;
+  truth << -3.1, 1.0,  //
+      0.5, 2.5;
+  const double wrapped = 6.2 - 2 * M_PI;  // -0.0832
+  const Eigen::MatrixXd errors = PredictionErrors(predicted, truth, {0});
+  EXPECT_NEAR(errors(0, 0), wrapped, 1e-12);
+  EXPECT_NEAR(errors(1, 0), 0.0, 1e-12);
+  EXPECT_DOUBLE_EQ(errors(1, 1), -0.5);
+  EXPECT_NEAR(*Rmse(predicted, truth, {0}), std::sqrt((wrapped * wrapped + 0.25) / 2.0),
+              1e-12);
+  absl::StatusOr<Eigen::VectorXd> per_dimension = RmsePerDimension(predicted, truth, {0});
+  ASSERT_TRUE(per_dimension.ok());
+  EXPECT_NEAR((*per_dimension)(0), std::abs(wrapped) / std::sqrt(2.0), 1e-12);
+  EXPECT_GT(*Rmse(predicted, truth), 4.0);  // without angle_dims: a turn off
+}
+
+// Coverage and boxes see where on the circle a state is: a pendulum that went
+// round five times covers the bins of the turn it is in now.
+TEST(CoverageTest, AnglesCountOnTheirTurnOfTheRegion) {
+  Eigen::MatrixXd visited(3, 2);
+  visited << 0.1 + 10 * M_PI, 0.5,  //
+      -0.1 - 4 * M_PI, 0.5,         //
+      M_PI, 0.5;                    // the region's upper end itself
+  const Box region = MakeBox({-M_PI, 0.0}, {M_PI, 1.0});
+  const Eigen::MatrixXd on = OnTheCircle(visited, region.lower, {0});
+  EXPECT_NEAR(on(0, 0), 0.1, 1e-9);
+  EXPECT_NEAR(on(1, 0), -0.1, 1e-9);
+  EXPECT_NEAR(on(2, 0), -M_PI, 1e-12);  // [lower, lower + 2 pi): pi is -pi
+  EXPECT_EQ(on.col(1), visited.col(1));
+  absl::StatusOr<Coverage> coverage = ComputeCoverage(on, region, 4, 2);
+  ASSERT_TRUE(coverage.ok());
+  // Angle bins of pi / 2: {2, 1, 0} -> 3/4; the rate: bin 2 of 4 -> 1/4.
+  EXPECT_DOUBLE_EQ(coverage->marginal, 0.5);
+  EXPECT_EQ(FractionOutside(on, region), 0.0);
+  EXPECT_GT(FractionOutside(visited, region), 0.5);
+}
+
 TEST(RmseTest, ZeroForPerfectPrediction) {
   const Eigen::MatrixXd truth = Eigen::MatrixXd::Random(5, 3);
   EXPECT_EQ(*Rmse(truth, truth), 0.0);
