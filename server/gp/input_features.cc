@@ -33,32 +33,27 @@ Eigen::MatrixXd InputFeatures::Map(const Eigen::MatrixXd& z) const {
   return out;
 }
 
-Eigen::VectorXd InputFeatures::MapCenter(const Eigen::VectorXd& z_center) const {
-  if (angles_.empty()) return z_center;
+Eigen::VectorXd InputFeatures::PerFeature(const Eigen::VectorXd& per_input,
+                                          double angle_value) const {
+  if (angles_.empty()) return per_input;
   Eigen::VectorXd out(feature_dim());
   for (int i = 0; i < z_dim_; ++i) {
     const int f = first_feature_[i];
     if (is_angle(i)) {
-      out.segment(f, 2).setZero();
+      out.segment(f, 2).setConstant(angle_value);
     } else {
-      out(f) = z_center(i);
+      out(f) = per_input(i);
     }
   }
   return out;
 }
 
+Eigen::VectorXd InputFeatures::MapCenter(const Eigen::VectorXd& z_center) const {
+  return PerFeature(z_center, 0.0);
+}
+
 Eigen::VectorXd InputFeatures::MapHalfWidth(const Eigen::VectorXd& z_half_width) const {
-  if (angles_.empty()) return z_half_width;
-  Eigen::VectorXd out(feature_dim());
-  for (int i = 0; i < z_dim_; ++i) {
-    const int f = first_feature_[i];
-    if (is_angle(i)) {
-      out.segment(f, 2).setOnes();
-    } else {
-      out(f) = z_half_width(i);
-    }
-  }
-  return out;
+  return PerFeature(z_half_width, 1.0);
 }
 
 Eigen::MatrixXd InputFeatures::PullBack(const Eigen::MatrixXd& d_features,

@@ -37,6 +37,9 @@ class InputFeatures {
                            const Eigen::RowVectorXd& z_row) const;
 
  private:
+  // One value per input to one per feature: an angle's two get `angle_value`.
+  Eigen::VectorXd PerFeature(const Eigen::VectorXd& per_input, double angle_value) const;
+
   int z_dim_;
   std::vector<int> angles_;
   // first_feature_[i]: the feature of z's column i (z_dim + 1 entries, the last

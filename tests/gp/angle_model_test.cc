@@ -10,43 +10,20 @@
 #include "common/angles.h"
 #include "server/gp/dynamics_model.h"
 #include "server/gp/input_features.h"
+#include "tests/gp/pendulum_samples.h"
 
 namespace excite::gp {
 namespace {
 
 constexpr double kNoiseVar = 1e-3;
 
-// A damped pendulum, state (angle, rate), input torque; dt = 0.1. Its angle is
-// not wrapped: a turn adds 2 pi.
-Eigen::Vector2d Step(const Eigen::Vector2d& x, double u) {
-  const double dt = 0.1;
-  return {x(0) + dt * x(1), x(1) + dt * (-9.81 * std::sin(x(0)) - 0.2 * x(1) + u)};
-}
+using testing::PendulumTransitions;
+using testing::Transitions;
+using testing::Z;
 
-struct Transitions {
-  Eigen::MatrixXd x, u, next;
-};
-
-// States with angles in [angle_lo, angle_hi], rates in [-6, 6], torques in [-2, 2].
+// States with angles in [angle_lo, angle_hi] (pendulum_samples.h).
 Transitions MakeTransitions(int n, uint64_t seed, double angle_lo, double angle_hi) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> a(angle_lo, angle_hi), r(-6.0, 6.0),
-      t(-2.0, 2.0);
-  std::normal_distribution<double> e(0.0, std::sqrt(kNoiseVar));
-  Transitions d{Eigen::MatrixXd(n, 2), Eigen::MatrixXd(n, 1), Eigen::MatrixXd(n, 2)};
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector2d x(a(rng), r(rng));
-    d.u(i, 0) = t(rng);
-    d.x.row(i) = (x + Eigen::Vector2d(e(rng), e(rng))).transpose();
-    d.next.row(i) = (Step(x, d.u(i, 0)) + Eigen::Vector2d(e(rng), e(rng))).transpose();
-  }
-  return d;
-}
-
-Eigen::MatrixXd Z(const Transitions& d) {
-  Eigen::MatrixXd z(d.x.rows(), 3);
-  z << d.x, d.u;
-  return z;
+  return PendulumTransitions(n, seed, kNoiseVar, angle_lo, angle_hi);
 }
 
 DynamicsModelOptions AngleOptions() {

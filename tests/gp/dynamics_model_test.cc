@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "server/gp/hyperparameters.h"
+#include "tests/gp/pendulum_samples.h"
 #include "tests/gp/reference_gp.h"
 
 namespace excite::gp {
@@ -18,29 +19,12 @@ using testing::RelErr;
 
 constexpr double kNoiseVar = 1e-3;
 
-// A damped pendulum, state (angle, rate), input torque; dt = 0.1.
-Eigen::Vector2d Step(const Eigen::Vector2d& x, double u) {
-  const double dt = 0.1;
-  return {x(0) + dt * x(1), x(1) + dt * (-9.81 * std::sin(x(0)) - 0.2 * x(1) + u)};
-}
-
-struct Transitions {
-  Eigen::MatrixXd x, u, next;
-};
+using testing::PendulumTransitions;
+using testing::Transitions;
+using testing::Z;
 
 Transitions MakeTransitions(int n, uint64_t seed, double noise_var = kNoiseVar) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> a(-3.0, 3.0), r(-6.0, 6.0), t(-2.0, 2.0);
-  std::normal_distribution<double> e(0.0, std::sqrt(noise_var));
-  Transitions d{Eigen::MatrixXd(n, 2), Eigen::MatrixXd(n, 1), Eigen::MatrixXd(n, 2)};
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector2d x(a(rng), r(rng));
-    d.u(i, 0) = t(rng);
-    const Eigen::Vector2d y = Step(x, d.u(i, 0));
-    d.x.row(i) = (x + Eigen::Vector2d(e(rng), e(rng))).transpose();
-    d.next.row(i) = (y + Eigen::Vector2d(e(rng), e(rng))).transpose();
-  }
-  return d;
+  return PendulumTransitions(n, seed, noise_var);
 }
 
 DynamicsModelOptions BaseOptions(Target target) {
@@ -63,12 +47,6 @@ std::vector<Hyperparameters> DataUnitHyperparameters() {
   b.lengthscales = Eigen::Vector3d(1.5, 6.0, 2.5);
   b.noise_variance = 3e-3;
   return {a, b};
-}
-
-Eigen::MatrixXd Z(const Transitions& d) {
-  Eigen::MatrixXd z(d.x.rows(), 3);
-  z << d.x, d.u;
-  return z;
 }
 
 // Fixed data-unit hyperparameters: the model equals a reference GP on raw z and
