@@ -205,7 +205,8 @@ def select_systems(cfg, args, mode):
                 chosen.append(s)
                 break
         return chosen
-    return names
+    # Held-out plants run only when named: nothing is tuned on them.
+    return [s for s in names if not cfg["systems"][s].get("held_out")]
 
 
 def make_plan(cfg, args, mode, out_dir):

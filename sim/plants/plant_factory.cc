@@ -7,7 +7,10 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "sim/plants/acrobot.h"
+#include "sim/plants/cart_pole.h"
 #include "sim/plants/dipc.h"
+#include "sim/plants/duffing.h"
 #include "sim/plants/half_cheetah.h"
 #include "sim/plants/pendulum.h"
 #include "sim/plants/two_link_arm.h"
@@ -98,6 +101,66 @@ absl::StatusOr<std::unique_ptr<Plant>> MakeUnicycle(const v1::PlantConfig& confi
   return std::make_unique<Unicycle>(parameters, config.dt_s(), config.substeps());
 }
 
+absl::StatusOr<std::unique_ptr<Plant>> MakeAcrobot(const v1::PlantConfig& config) {
+  const v1::AcrobotParams& p = config.acrobot();
+  for (auto [value, field] :
+       {std::pair{p.mass1_kg(), "acrobot.mass1_kg"},
+        std::pair{p.mass2_kg(), "acrobot.mass2_kg"},
+        std::pair{p.length1_m(), "acrobot.length1_m"},
+        std::pair{p.com1_m(), "acrobot.com1_m"}, std::pair{p.com2_m(), "acrobot.com2_m"},
+        std::pair{p.inertia1(), "acrobot.inertia1"},
+        std::pair{p.inertia2(), "acrobot.inertia2"},
+        std::pair{p.gravity(), "acrobot.gravity"}}) {
+    if (absl::Status s = CheckPositive(value, field); !s.ok()) return s;
+  }
+  AcrobotParameters parameters;
+  parameters.mass1_kg = p.mass1_kg();
+  parameters.mass2_kg = p.mass2_kg();
+  parameters.length1_m = p.length1_m();
+  parameters.com1_m = p.com1_m();
+  parameters.com2_m = p.com2_m();
+  parameters.inertia1 = p.inertia1();
+  parameters.inertia2 = p.inertia2();
+  parameters.gravity = p.gravity();
+  return std::make_unique<Acrobot>(parameters, config.dt_s(), config.substeps());
+}
+
+absl::StatusOr<std::unique_ptr<Plant>> MakeCartPole(const v1::PlantConfig& config) {
+  const v1::CartPoleParams& p = config.cart_pole();
+  for (auto [value, field] :
+       {std::pair{p.cart_mass_kg(), "cart_pole.cart_mass_kg"},
+        std::pair{p.pole_mass_kg(), "cart_pole.pole_mass_kg"},
+        std::pair{p.pole_half_length_m(), "cart_pole.pole_half_length_m"},
+        std::pair{p.gravity(), "cart_pole.gravity"}}) {
+    if (absl::Status s = CheckPositive(value, field); !s.ok()) return s;
+  }
+  CartPoleParameters parameters;
+  parameters.cart_mass_kg = p.cart_mass_kg();
+  parameters.pole_mass_kg = p.pole_mass_kg();
+  parameters.pole_half_length_m = p.pole_half_length_m();
+  parameters.gravity = p.gravity();
+  return std::make_unique<CartPole>(parameters, config.dt_s(), config.substeps());
+}
+
+absl::StatusOr<std::unique_ptr<Plant>> MakeDuffing(const v1::PlantConfig& config) {
+  const v1::DuffingParams& p = config.duffing();
+  if (absl::Status s = CheckNonNegative(p.damping(), "duffing.damping"); !s.ok())
+    return s;
+  for (auto [value, field] :
+       {std::pair{p.linear_stiffness(), "duffing.linear_stiffness"},
+        std::pair{p.cubic_stiffness(), "duffing.cubic_stiffness"}}) {
+    if (!std::isfinite(value)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("plant.", field, " must be finite, got ", value));
+    }
+  }
+  DuffingParameters parameters;
+  parameters.damping = p.damping();
+  parameters.linear_stiffness = p.linear_stiffness();
+  parameters.cubic_stiffness = p.cubic_stiffness();
+  return std::make_unique<Duffing>(parameters, config.dt_s(), config.substeps());
+}
+
 absl::StatusOr<std::unique_ptr<Plant>> MakeMujoco(const v1::PlantConfig& config) {
   const std::string& model = config.mujoco().model();
   if (model == "dipc") {
@@ -138,11 +201,19 @@ absl::StatusOr<std::unique_ptr<Plant>> MakePlant(const v1::PlantConfig& config) 
     case v1::PlantConfig::kMujoco:
       plant = MakeMujoco(config);
       break;
+    case v1::PlantConfig::kAcrobot:
+      plant = MakeAcrobot(config);
+      break;
+    case v1::PlantConfig::kCartPole:
+      plant = MakeCartPole(config);
+      break;
+    case v1::PlantConfig::kDuffing:
+      plant = MakeDuffing(config);
+      break;
     case v1::PlantConfig::MODEL_NOT_SET:
       return absl::InvalidArgumentError(
           "plant has no model: set one of the `model` fields (pendulum, two_link, "
-          "unicycle, "
-          "mujoco)");
+          "unicycle, mujoco, acrobot, cart_pole, duffing)");
   }
   if (!plant.ok()) return plant.status();
   if (config.initial_state_size() != 0) {

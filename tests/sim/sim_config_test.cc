@@ -67,6 +67,15 @@ TEST_P(BenchmarkConfigTest, ParsesValidatesAndHasThePapersNumbers) {
   EXPECT_LT((x1 - x0).cwiseAbs().maxCoeff(), 1e-3) << (x1 - x0).transpose();
 }
 
+// The held-out plants (issue 29), their noise from bench/paper/region_rule.py.
+INSTANTIATE_TEST_SUITE_P(HeldOut, BenchmarkConfigTest,
+                         testing::Values(PaperSystem{"acrobot", 4, 1, 0.00681, 15},
+                                         PaperSystem{"cart_pole", 4, 1, 0.00888, 15},
+                                         PaperSystem{"duffing", 2, 1, 0.000392, 15}),
+                         [](const testing::TestParamInfo<PaperSystem>& param_info) {
+                           return std::string(param_info.param.system);
+                         });
+
 INSTANTIATE_TEST_SUITE_P(Paper, BenchmarkConfigTest,
                          testing::Values(PaperSystem{"pendulum", 2, 1, 0.05, 15},
                                          PaperSystem{"two_link", 4, 2, 0.05, 15},
