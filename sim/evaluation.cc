@@ -50,7 +50,6 @@ Eigen::VectorXd UniformPoint(const Box& box, PortableRandom& random) {
 absl::StatusOr<Eigen::VectorXd> UniformState(const Plant& plant, const Box& region,
                                              PortableRandom& random) {
   constexpr int kMaxDraws = 100000;
-  constexpr double kPi = 3.14159265358979323846;
   Eigen::VectorXd x = UniformPoint(region, random);
   for (const auto& [s, c] : plant.AnglePairs()) {
     int draw = 0;
@@ -120,6 +119,49 @@ Eigen::MatrixXd OnTheCircle(const Eigen::MatrixXd& states, const Eigen::VectorXd
     }
   }
   return out;
+}
+
+Calibration ComputeCalibration(const Eigen::MatrixXd& mean,
+                               const Eigen::MatrixXd& variance,
+                               const Eigen::MatrixXd& truth,
+                               const std::vector<int>& angle_dims) {
+  const Eigen::ArrayXXd error = PredictionErrors(mean, truth, angle_dims).array();
+  // A variance of 0 (a clamped round-off) would make the density infinite: floor it.
+  const Eigen::ArrayXXd var = variance.array().max(1e-300);
+  Calibration c;
+  const double n = static_cast<double>(error.size());
+  c.nlpd = (0.5 * (2.0 * kPi * var).log() + 0.5 * error.square() / var).sum() / n;
+  c.inside_95 = (error.abs() <= 1.959963984540054 * var.sqrt()).cast<double>().sum() / n;
+  return c;
+}
+
+absl::StatusOr<RolloutSet> MakeRolloutSet(const Plant& plant, const Box& region,
+                                          const Box& inputs, int count, int steps,
+                                          uint64_t seed) {
+  if (count < 1 || steps < 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "rollouts need count >= 1 and steps >= 1, got ", count, " and ", steps));
+  }
+  const int dx = plant.state_dim();
+  const int du = plant.input_dim();
+  if (absl::Status s = CheckBox(region, dx, "state region"); !s.ok()) return s;
+  if (absl::Status s = CheckBox(inputs, du, "input bounds"); !s.ok()) return s;
+  PortableRandom random(seed);
+  RolloutSet set;
+  set.states.assign(steps + 1, Eigen::MatrixXd(count, dx));
+  set.inputs.assign(steps, Eigen::MatrixXd(count, du));
+  for (int r = 0; r < count; ++r) {
+    absl::StatusOr<Eigen::VectorXd> x = UniformState(plant, region, random);
+    if (!x.ok()) return x.status();
+    set.states[0].row(r) = x->transpose();
+    for (int k = 0; k < steps; ++k) {
+      const Eigen::VectorXd u = UniformPoint(inputs, random);
+      set.inputs[k].row(r) = u.transpose();
+      *x = plant.Step(*x, u);
+      set.states[k + 1].row(r) = x->transpose();
+    }
+  }
+  return set;
 }
 
 absl::StatusOr<double> Rmse(const Eigen::MatrixXd& predicted_mean,

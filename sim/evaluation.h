@@ -78,6 +78,32 @@ Eigen::MatrixXd PredictionErrors(const Eigen::MatrixXd& predicted,
 Eigen::MatrixXd OnTheCircle(const Eigen::MatrixXd& states, const Eigen::VectorXd& lower,
                             const std::vector<int>& angle_dims);
 
+// How well the predictive variances fit the errors, over every (point, state
+// dimension) pair of a Predict of latent N(mean, variance) against the noise-free
+// truth (angles' errors wrapped): the mean negative log predictive density (nats;
+// lower is better, and overconfidence costs most) and the share of errors within
+// the 95 % interval mean +- 1.96 sd (0.95 when calibrated). Shapes must match.
+struct Calibration {
+  double nlpd = 0.0;
+  double inside_95 = 0.0;
+};
+Calibration ComputeCalibration(const Eigen::MatrixXd& mean,
+                               const Eigen::MatrixXd& variance,
+                               const Eigen::MatrixXd& truth,
+                               const std::vector<int>& angle_dims);
+
+// Trajectories of the plant for multi-step (open-loop) prediction errors: `count`
+// starts UniformState(region), each driven `steps` steps by inputs drawn uniformly
+// from the input box, one per step, all from PortableRandom(seed) (the same set for
+// every strategy compared).
+struct RolloutSet {
+  std::vector<Eigen::MatrixXd> states;  // steps + 1 entries of count x state_dim
+  std::vector<Eigen::MatrixXd> inputs;  // steps entries of count x input_dim
+};
+absl::StatusOr<RolloutSet> MakeRolloutSet(const Plant& plant, const Box& region,
+                                          const Box& inputs, int count, int steps,
+                                          uint64_t seed);
+
 // The joint coverage is computed up to this state dimension (bins^dim cells).
 inline constexpr int kMaxJointCoverageDim = 4;
 

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -41,6 +42,11 @@ absl::Status Annotate(const absl::Status& status, absl::string_view context) {
   return absl::Status(status.code(), absl::StrCat(context, ": ", status.message()));
 }
 
+// Multi-step errors: 50 trajectories (RMSE Monte-Carlo error of ~10 %), scored
+// after 10 and 30 steps (the horizons; the paper plans 10-15 ahead).
+constexpr int kRolloutTrajectories = 50;
+constexpr std::array<int, 2> kRolloutSteps = {10, 30};
+
 // The state of one run; RunExploration's steps as methods.
 class ExplorationRun {
  public:
@@ -75,6 +81,9 @@ class ExplorationRun {
   // Appends `stored` to options_.trajectory (the header first).
   void WriteTrajectory(const std::vector<v1::Transition>& stored);
   absl::Status Evaluate();
+  // The summary's multi-step errors: the model's mean rolled out open loop along
+  // rollouts_, one Predict per step for all trajectories.
+  absl::Status RollOut();
   Eigen::VectorXd Measure(const Eigen::VectorXd& x);
 
   client::ExciteClient& client_;
@@ -94,6 +103,7 @@ class ExplorationRun {
   std::string session_name_;
   int64_t min_samples_ = 2;
   EvaluationSet evaluation_set_;
+  RolloutSet rollouts_;
   v1::PredictRequest predict_request_;
   Eigen::VectorXd x_;  // True state.
   Eigen::VectorXd y_;  // Its measurement.
@@ -124,6 +134,11 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
       plant_, region_, input_box_, evaluation.points(), evaluation.seed());
   if (!set.ok()) return Annotate(set.status(), "evaluation set");
   evaluation_set_ = *std::move(set);
+  absl::StatusOr<RolloutSet> rollouts =
+      MakeRolloutSet(plant_, region_, input_box_, kRolloutTrajectories,
+                     kRolloutSteps.back(), evaluation.seed() + 1);
+  if (!rollouts.ok()) return Annotate(rollouts.status(), "rollout set");
+  rollouts_ = *std::move(rollouts);
 
   absl::StatusOr<v1::Session> session =
       client_.CreateSession(config_.session(), options_.session_id);
@@ -146,6 +161,7 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   }
 
   absl::Status explored = Explore();
+  if (explored.ok()) explored = RollOut();
   if (!options_.keep_session) {
     const absl::Status deleted = client_.DeleteSession(session_name_);
     if (explored.ok() && !deleted.ok()) {
@@ -357,6 +373,39 @@ void ExplorationRun::WriteTrajectory(const std::vector<v1::Transition>& stored) 
   }
 }
 
+absl::Status ExplorationRun::RollOut() {
+  const Eigen::Index count = rollouts_.states[0].rows();
+  Eigen::MatrixXd x = rollouts_.states[0];
+  v1::PredictRequest request;
+  request.set_session(session_name_);
+  request.set_include_noise(false);
+  for (int k = 0; k < kRolloutSteps.back(); ++k) {
+    request.clear_inputs();
+    for (Eigen::Index r = 0; r < count; ++r) {
+      for (int i = 0; i < dx_; ++i) request.add_inputs(x(r, i));
+      for (int j = 0; j < du_; ++j) request.add_inputs(rollouts_.inputs[k](r, j));
+    }
+    absl::StatusOr<v1::PredictResponse> reply = client_.Predict(request);
+    if (!reply.ok()) return Annotate(reply.status(), "Predict (rollout)");
+    if (reply->mean_size() != count * dx_) {
+      return absl::InternalError(absl::StrCat("Predict returned ", reply->mean_size(),
+                                              " means for ", count, " rollouts"));
+    }
+    x = Eigen::Map<
+        const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+        reply->mean().data(), count, dx_);
+    double* scored = k + 1 == kRolloutSteps[0]   ? &summary_.rollout_rmse_10
+                     : k + 1 == kRolloutSteps[1] ? &summary_.rollout_rmse_30
+                                                 : nullptr;
+    if (scored != nullptr) {
+      absl::StatusOr<double> rmse = Rmse(x, rollouts_.states[k + 1], angle_dims_);
+      if (!rmse.ok()) return rmse.status();
+      *scored = *rmse;
+    }
+  }
+  return absl::OkStatus();
+}
+
 absl::Status ExplorationRun::Evaluate() {
   absl::StatusOr<v1::PredictResponse> reply = client_.Predict(predict_request_);
   if (!reply.ok()) return Annotate(reply.status(), "Predict");
@@ -374,6 +423,13 @@ absl::Status ExplorationRun::Evaluate() {
       RmsePerDimension(mean, evaluation_set_.next_states, angle_dims_);
   if (!per_dimension.ok()) return per_dimension.status();
   summary_.final_rmse_per_dimension.assign(per_dimension->begin(), per_dimension->end());
+  const Eigen::MatrixXd variance = Eigen::Map<
+      const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      reply->variance().data(), points, dx_);
+  const Calibration calibration =
+      ComputeCalibration(mean, variance, evaluation_set_.next_states, angle_dims_);
+  summary_.final_nlpd = calibration.nlpd;
+  summary_.final_inside_95 = calibration.inside_95;
   summary_.rmse_history.push_back({samples_, *rmse});
   if (options_.log != nullptr) {
     *options_.log << absl::StrFormat("step %d samples %d rmse %.4f plan_ms %.1f\n",

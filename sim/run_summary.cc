@@ -66,24 +66,29 @@ std::string RunSummaryToJson(const RunSummary& summary) {
       summary.coverage_joint.has_value() ? JsonNumber(*summary.coverage_joint) : "null";
   const std::string left_safe_box =
       summary.left_safe_box.has_value() ? JsonNumber(*summary.left_safe_box) : "null";
-  return absl::StrCat("{\n",                                                    //
-                      "  \"system\": ", JsonString(summary.system), ",\n",      //
-                      "  \"strategy\": ", JsonString(summary.strategy), ",\n",  //
-                      "  \"session\": ", JsonString(summary.session), ",\n",    //
-                      "  \"samples\": ", summary.samples, ",\n",                //
-                      "  \"final_rmse\": ", JsonNumber(summary.final_rmse), ",\n",
-                      "  \"final_rmse_per_dimension\": ", per_dimension, ",\n",
-                      "  \"coverage_marginal\": ", JsonNumber(summary.coverage_marginal),
-                      ",\n",                                   //
-                      "  \"coverage_joint\": ", joint, ",\n",  //
-                      "  \"rmse_history\": ", history, ",\n",  //
-                      "  \"plan_ms_p50\": ", JsonNumber(summary.plan_ms_p50), ",\n",
-                      "  \"plans\": ", summary.plans, ",\n",                //
-                      "  \"random_steps\": ", summary.random_steps, ",\n",  //
-                      "  \"plan_retries\": ", summary.plan_retries, ",\n",  //
-                      "  \"left_safe_box\": ", left_safe_box, ",\n",        //
-                      "  \"wall_s\": ", JsonNumber(summary.wall_s), "\n",   //
-                      "}\n");
+  return absl::StrCat(
+      "{\n",                                                    //
+      "  \"system\": ", JsonString(summary.system), ",\n",      //
+      "  \"strategy\": ", JsonString(summary.strategy), ",\n",  //
+      "  \"session\": ", JsonString(summary.session), ",\n",    //
+      "  \"samples\": ", summary.samples, ",\n",                //
+      "  \"final_rmse\": ", JsonNumber(summary.final_rmse), ",\n",
+      "  \"final_rmse_per_dimension\": ", per_dimension, ",\n",
+      "  \"final_nlpd\": ", JsonNumber(summary.final_nlpd), ",\n",
+      "  \"final_inside_95\": ", JsonNumber(summary.final_inside_95), ",\n",
+      "  \"rollout_rmse_10\": ", JsonNumber(summary.rollout_rmse_10), ",\n",
+      "  \"rollout_rmse_30\": ", JsonNumber(summary.rollout_rmse_30), ",\n",
+      "  \"coverage_marginal\": ", JsonNumber(summary.coverage_marginal),
+      ",\n",                                   //
+      "  \"coverage_joint\": ", joint, ",\n",  //
+      "  \"rmse_history\": ", history, ",\n",  //
+      "  \"plan_ms_p50\": ", JsonNumber(summary.plan_ms_p50), ",\n",
+      "  \"plans\": ", summary.plans, ",\n",                //
+      "  \"random_steps\": ", summary.random_steps, ",\n",  //
+      "  \"plan_retries\": ", summary.plan_retries, ",\n",  //
+      "  \"left_safe_box\": ", left_safe_box, ",\n",        //
+      "  \"wall_s\": ", JsonNumber(summary.wall_s), "\n",   //
+      "}\n");
 }
 
 absl::Status WriteRunSummary(const RunSummary& summary, const std::string& path) {

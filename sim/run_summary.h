@@ -2,6 +2,7 @@
 #define EXCITE_SIM_RUN_SUMMARY_H_
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -26,6 +27,16 @@ struct RunSummary {
   double final_rmse = 0.0;
   // The final RMSE per state dimension (RmsePerDimension); empty if never evaluated.
   std::vector<double> final_rmse_per_dimension;
+  // Calibration of the last evaluation (evaluation.h, ComputeCalibration): mean
+  // negative log predictive density [nats] and the share of errors inside the 95 %
+  // interval; NaN if never evaluated.
+  double final_nlpd = std::numeric_limits<double>::quiet_NaN();
+  double final_inside_95 = std::numeric_limits<double>::quiet_NaN();
+  // Multi-step prediction at the end: RMSE of the model's mean rolled out open loop
+  // from the true start under the true inputs, after 10 and 30 steps, over the
+  // trajectories of a RolloutSet (exploration_run.h); NaN if not computed.
+  double rollout_rmse_10 = std::numeric_limits<double>::quiet_NaN();
+  double rollout_rmse_30 = std::numeric_limits<double>::quiet_NaN();
   double coverage_marginal = 0.0;        // Fraction in [0, 1].
   std::optional<double> coverage_joint;  // Not computed for state_dim > 4.
   std::vector<RmsePoint> rmse_history;   // In order of samples.
@@ -40,7 +51,8 @@ struct RunSummary {
 };
 
 // The summary as one JSON object with the keys system, strategy, session, samples,
-// final_rmse, final_rmse_per_dimension ([...]), coverage_marginal, coverage_joint,
+// final_rmse, final_rmse_per_dimension ([...]), final_nlpd, final_inside_95,
+// rollout_rmse_10, rollout_rmse_30, coverage_marginal, coverage_joint,
 // rmse_history ([[samples, rmse], ...]), plan_ms_p50, plans, random_steps, plan_retries,
 // left_safe_box, wall_s. Non-finite numbers and a missing coverage_joint or left_safe_box
 // are written as null. Ends with a newline.

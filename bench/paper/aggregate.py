@@ -11,6 +11,7 @@ coverage_joint, rmse_history, plan_ms_p50, wall_s) plus "trial" (its index) and
 
 import csv
 import math
+import random
 
 # Columns of results.csv, in order. One row per (system, strategy, trial, samples)
 # point of the trial's RMSE history; coverage_marginal, coverage_joint and plan_ms are
@@ -273,6 +274,101 @@ def trial_count_table(stats, planned, systems, strategies, system_labels=None,
             p = planned.get((system, strategy), 0)
             done = stats.get((system, strategy), {}).get("trials", 0)
             row.append("-" if p == 0 and done == 0 else f"{done}/{p}")
+        lines.append("| " + " | ".join(row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def paired_ratio(values, reference_values, resamples=10000, level=0.90, seed=0):
+    """Paired comparison of two strategies over the same seeds.
+
+    values, reference_values: {seed: metric} (lower is better; positive). Over the
+    seeds both have: the geometric mean of value / reference, its `level` paired
+    bootstrap interval (seeds resampled with replacement, `resamples` times, from a
+    fixed seed), the seeds where value < reference, and their count. None if no
+    seed is shared or a value is not positive and finite."""
+    seeds = sorted(set(values) & set(reference_values))
+    logs = []
+    for k in seeds:
+        a, b = values[k], reference_values[k]
+        if a is None or b is None or not (0 < a < math.inf and 0 < b < math.inf):
+            return None
+        logs.append(math.log(a / b))
+    if not logs:
+        return None
+    rng = random.Random(seed)
+    n = len(logs)
+    means = sorted(sum(logs[rng.randrange(n)] for _ in range(n)) / n
+                   for _ in range(resamples))
+    tail = (1 - level) / 2
+    lo = means[int(math.floor(tail * (resamples - 1)))]
+    hi = means[int(math.ceil((1 - tail) * (resamples - 1)))]
+    return {"ratio": math.exp(sum(logs) / n), "low": math.exp(lo), "high": math.exp(hi),
+            "wins": sum(1 for v in logs if v < 0), "seeds": n}
+
+
+def paired_section(records, systems, strategies, system_labels=None,
+                   strategy_labels=None, reference="rec",
+                   metrics=(("final_rmse", "final RMSE"),
+                            ("rollout_rmse_10", "10-step RMSE"),
+                            ("rollout_rmse_30", "30-step RMSE"))):
+    """Markdown: per metric, each strategy against `reference` on the same seeds
+    (paired_ratio): 'ratio [low, high] wins/seeds'. records: successful trials as
+    {"system", "strategy", "seed", "result": summary dict}."""
+    system_labels = system_labels or {}
+    strategy_labels = strategy_labels or {}
+    by_cell = {}
+    for r in records:
+        by_cell.setdefault((r["system"], r["strategy"]), {})[r["seed"]] = r["result"]
+    lines = []
+    for key, title in metrics:
+        lines += [f"Paired against {reference}, {title}: geometric mean of the ratio over "
+                  "the seeds both ran, [90 % paired bootstrap interval], seeds lower.", ""]
+        lines.append("| ratio to " + reference + " |"
+                     + "".join(f" {system_labels.get(s, s)} |" for s in systems))
+        lines.append("|---|" + "---|" * len(systems))
+        for strategy in strategies:
+            if strategy == reference:
+                continue
+            row = [strategy_labels.get(strategy, strategy)]
+            for system in systems:
+                mine = {k: v.get(key) for k, v in by_cell.get((system, strategy), {}).items()}
+                ref = {k: v.get(key)
+                       for k, v in by_cell.get((system, reference), {}).items()}
+                p = paired_ratio(mine, ref)
+                row.append("-" if p is None else
+                           f"{p['ratio']:.2f} [{p['low']:.2f}, {p['high']:.2f}] "
+                           f"{p['wins']}/{p['seeds']}")
+            lines.append("| " + " | ".join(row) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def calibration_table(records, systems, strategies, system_labels=None,
+                      strategy_labels=None):
+    """Markdown: per cell, the mean final NLPD (nats per point and dimension) and
+    the mean share of errors inside the 95 % interval, over the successful trials."""
+    system_labels = system_labels or {}
+    strategy_labels = strategy_labels or {}
+    cells = {}
+    for r in records:
+        res = r["result"]
+        cells.setdefault((r["system"], r["strategy"]), []).append(
+            (res.get("final_nlpd"), res.get("final_inside_95")))
+    lines = ["Calibration at the end: mean NLPD (nats; lower is better) / share of "
+             "errors inside the 95 % interval (0.95 when calibrated).", "",
+             "| NLPD / inside 95 % |" + "".join(f" {system_labels.get(s, s)} |"
+                                               for s in systems),
+             "|---|" + "---|" * len(systems)]
+    for strategy in strategies:
+        row = [strategy_labels.get(strategy, strategy)]
+        for system in systems:
+            pairs = [(a, b) for a, b in cells.get((system, strategy), [])
+                     if a is not None and b is not None]
+            if not pairs:
+                row.append("-")
+                continue
+            row.append(f"{sum(a for a, _ in pairs) / len(pairs):.2f} / "
+                       f"{sum(b for _, b in pairs) / len(pairs):.2f}")
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
 

@@ -565,13 +565,16 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
     aggregate.write_csv(os.path.join(out_dir, "results.csv"), results)
     with open(os.path.join(out_dir, "trials.csv"), "w", encoding="utf-8") as f:
         f.write("system,strategy,trial,seed,status,samples,final_rmse,"
-                "coverage_marginal,coverage_joint,plan_ms_p50,wall_s,error\n")
+                "coverage_marginal,coverage_joint,plan_ms_p50,wall_s,final_nlpd,"
+                "final_inside_95,rollout_rmse_10,rollout_rmse_30,error\n")
         for r in trial_records:
             s = r.get("result") or {}
             vals = [r["system"], r["strategy"], r["trial"], r["seed"], r["status"],
                     s.get("samples", ""), s.get("final_rmse", ""),
                     s.get("coverage_marginal", ""), s.get("coverage_joint", ""),
-                    s.get("plan_ms_p50", ""), s.get("wall_s", "")]
+                    s.get("plan_ms_p50", ""), s.get("wall_s", ""),
+                    s.get("final_nlpd", ""), s.get("final_inside_95", ""),
+                    s.get("rollout_rmse_10", ""), s.get("rollout_rmse_30", "")]
             vals = ["" if v is None else str(v) for v in vals]
             err = (r.get("error") or "").replace('"', "'")
             f.write(",".join(vals) + f',"{err}"\n')
@@ -618,6 +621,14 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
         aggregate.trial_count_table(stats, planned, shown_systems, shown_strats,
                                     sys_labels, st_labels),
     ]
+    ok_records = [r for r in trial_records if r["status"] == "ok" and r.get("result")
+                  and r.get("seed") is not None]
+    if any(r["strategy"] == "rec" for r in ok_records):
+        lines.append(aggregate.paired_section(ok_records, shown_systems, shown_strats,
+                                              sys_labels, st_labels))
+    if ok_records:
+        lines.append(aggregate.calibration_table(ok_records, shown_systems,
+                                                 shown_strats, sys_labels, st_labels))
     if meta["skipped"]:
         lines.append("Not run:")
         lines.append("")

@@ -33,6 +33,37 @@ def trial(system, strategy, index, history, cov=0.5, joint=None, plan=10.0, wall
     }
 
 
+class PairedTest(unittest.TestCase):
+    def test_geometric_mean_interval_and_wins(self):
+        p = aggregate.paired_ratio({0: 1.0, 1: 4.0, 7: 9.0}, {0: 2.0, 1: 2.0, 3: 1.0})
+        self.assertEqual(p["seeds"], 2)  # seeds 7 and 3 are not shared
+        self.assertAlmostEqual(p["ratio"], 1.0)  # sqrt(0.5 * 2)
+        self.assertEqual(p["wins"], 1)
+        # Resampling two seeds: means of {log 0.5, log 2} pairs, 0.5 to 2.
+        self.assertAlmostEqual(p["low"], 0.5)
+        self.assertAlmostEqual(p["high"], 2.0)
+
+    def test_identical_runs_and_bad_values(self):
+        p = aggregate.paired_ratio({0: 0.3, 1: 0.2}, {0: 0.3, 1: 0.2})
+        self.assertEqual((p["ratio"], p["low"], p["high"], p["wins"]), (1.0, 1.0, 1.0, 0))
+        self.assertIsNone(aggregate.paired_ratio({0: 0.0}, {0: 1.0}))
+        self.assertIsNone(aggregate.paired_ratio({0: None}, {0: 1.0}))
+        self.assertIsNone(aggregate.paired_ratio({0: 1.0}, {1: 1.0}))
+
+    def test_sections(self):
+        records = [{"system": "pendulum", "strategy": st, "seed": k,
+                    "result": {"final_rmse": v, "rollout_rmse_10": v,
+                               "rollout_rmse_30": None, "final_nlpd": -1.0 - k,
+                               "final_inside_95": 0.9}}
+                   for st, values in (("rec", [0.2, 0.4]), ("pa", [0.1, 0.2]))
+                   for k, v in enumerate(values)]
+        text = aggregate.paired_section(records, ["pendulum"], ["rec", "pa"])
+        self.assertIn("| pa | 0.50 [0.50, 0.50] 2/2 |", text)
+        self.assertIn("| pa | - |", text)  # no 30-step errors
+        table = aggregate.calibration_table(records, ["pendulum"], ["rec", "pa"])
+        self.assertIn("| rec | -1.50 / 0.90 |", table)
+
+
 class MeanStdTest(unittest.TestCase):
     def test_known_values(self):
         m, s, n = aggregate.mean_std([2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0])

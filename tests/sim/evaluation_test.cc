@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "sim/plants/pendulum.h"
 
 namespace excite::sim {
 namespace {
@@ -106,6 +107,48 @@ TEST(CoverageTest, AnglesCountOnTheirTurnOfTheRegion) {
   EXPECT_DOUBLE_EQ(coverage->marginal, 0.5);
   EXPECT_EQ(FractionOutside(on, region), 0.0);
   EXPECT_GT(FractionOutside(visited, region), 0.5);
+}
+
+// Hand-computed: errors 0, 1 and 3 (the last an angle predicted 3 + 2 pi) against
+// standard deviations 1, 1 and 1.5: the third is outside its 95 % interval (2.94).
+TEST(CalibrationTest, HandComputed) {
+  Eigen::MatrixXd mean(1, 3), variance(1, 3), truth(1, 3);
+  mean << 1.0, 2.0, 3.0 + 2 * M_PI;
+  truth << 1.0, 1.0, 0.0;
+  variance << 1.0, 1.0, 2.25;
+  const Calibration c = ComputeCalibration(mean, variance, truth, {2});
+  const double log2pi = std::log(2 * M_PI);
+  const double expected =
+      (0.5 * log2pi + (0.5 * log2pi + 0.5) + (0.5 * (log2pi + std::log(2.25)) + 2.0)) /
+      3.0;
+  EXPECT_NEAR(c.nlpd, expected, 1e-12);
+  EXPECT_DOUBLE_EQ(c.inside_95, 2.0 / 3.0);
+  // Without angle_dims the third error is 3 + 2 pi: far outside.
+  EXPECT_GT(ComputeCalibration(mean, variance, truth, {}).nlpd, c.nlpd + 5.0);
+}
+
+// Each rollout is the plant driven by its inputs from its start; the same seed
+// gives the same set.
+TEST(RolloutSetTest, TrajectoriesOfThePlant) {
+  const Pendulum pendulum(PendulumParameters(), 0.1, 10);
+  const Plant* plant = &pendulum;
+  const Box region = MakeBox({-M_PI, -8.0}, {M_PI, 8.0});
+  const Box inputs = MakeBox({-3.0}, {3.0});
+  absl::StatusOr<RolloutSet> set = MakeRolloutSet(*plant, region, inputs, 4, 6, 7);
+  ASSERT_TRUE(set.ok()) << set.status();
+  ASSERT_EQ(set->states.size(), 7u);
+  ASSERT_EQ(set->inputs.size(), 6u);
+  for (int k = 0; k < 6; ++k) {
+    for (int r = 0; r < 4; ++r) {
+      const Eigen::VectorXd next = plant->Step(set->states[k].row(r).transpose(),
+                                               set->inputs[k].row(r).transpose());
+      EXPECT_EQ(set->states[k + 1].row(r), next.transpose());
+      EXPECT_LE(std::abs(set->inputs[k](r, 0)), 3.0);
+    }
+  }
+  absl::StatusOr<RolloutSet> again = MakeRolloutSet(*plant, region, inputs, 4, 6, 7);
+  EXPECT_EQ(again->states[6], set->states[6]);
+  EXPECT_FALSE(MakeRolloutSet(*plant, region, inputs, 0, 6, 7).ok());
 }
 
 TEST(RmseTest, ZeroForPerfectPrediction) {

@@ -322,6 +322,29 @@ TEST_F(ExplorationRunTest, PredictAfterALostAnswerIsResent) {
       << summary.status();
 }
 
+// A model that predicts the plant exactly, with unit variance: no multi-step
+// error, every error inside its interval, the density of a zero error. A model
+// that predicts no motion: errors at both horizons.
+TEST_F(ExplorationRunTest, MultiStepErrorsAndCalibrationAreScored) {
+  config_.set_samples(10);
+  service_->exact_after = 0;
+  absl::StatusOr<RunSummary> summary = Run();
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->rollout_rmse_10, 0.0);
+  EXPECT_EQ(summary->rollout_rmse_30, 0.0);
+  EXPECT_EQ(summary->final_inside_95, 1.0);
+  EXPECT_NEAR(summary->final_nlpd, 0.5 * std::log(2 * M_PI), 1e-12);
+
+  service_->transitions_.clear();
+  service_->sequences_.clear();
+  service_->exact_after = 1000000;
+  summary = Run();
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_GT(summary->rollout_rmse_10, 0.1);
+  EXPECT_GT(summary->rollout_rmse_30, 0.1);
+  EXPECT_GT(summary->final_nlpd, 0.5 * std::log(2 * M_PI));
+}
+
 TEST_F(ExplorationRunTest, FailedPreconditionAfterMinSamplesIsAnError) {
   config_.set_samples(10);
   service_->refuse_plans_ = true;

@@ -18,6 +18,9 @@ RunSummary Example() {
   summary.samples = 20;
   summary.final_rmse = 0.5;
   summary.final_rmse_per_dimension = {0.25, 0.375};
+  summary.final_nlpd = -1.5;
+  summary.final_inside_95 = 0.875;
+  summary.rollout_rmse_10 = 0.75;  // rollout_rmse_30 left NaN: null
   summary.coverage_marginal = 0.25;
   summary.coverage_joint = 0.125;
   summary.rmse_history = {{10, 1.5}, {20, 0.5}};
@@ -37,6 +40,10 @@ TEST(RunSummaryTest, Json) {
             "  \"samples\": 20,\n"
             "  \"final_rmse\": 0.5,\n"
             "  \"final_rmse_per_dimension\": [0.25, 0.375],\n"
+            "  \"final_nlpd\": -1.5,\n"
+            "  \"final_inside_95\": 0.875,\n"
+            "  \"rollout_rmse_10\": 0.75,\n"
+            "  \"rollout_rmse_30\": null,\n"
             "  \"coverage_marginal\": 0.25,\n"
             "  \"coverage_joint\": 0.125,\n"
             "  \"rmse_history\": [[10, 1.5], [20, 0.5]],\n"
