@@ -40,6 +40,9 @@ class Acrobot : public Rk4Plant {
   double Energy(const Eigen::VectorXd& x) const;
 
  private:
+  // M(q): [[d1, d2], [d2, d22]] (depends on q2 only).
+  Eigen::Matrix2d MassMatrix(double q2) const;
+
   AcrobotParameters p_;
 };
 
