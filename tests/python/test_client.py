@@ -166,6 +166,30 @@ def test_predict_learns_a_linear_plant(client):
     session.delete()
 
 
+def test_angles_predict_the_same_a_turn_later(client):
+    # A dict config naming an angle: the server models x0 on the circle.
+    session = client.create_session(linear_config(
+        angle_dims=[0], state_bounds=[[-np.pi, np.pi], [-1.0, 1.0]]))
+    assert list(session.config.angle_dims) == [0]
+    x, u, x_next, _, _ = linear_data(40, seed=4)
+    session.add(x, u, x_next)
+    z = np.hstack([x[:5], u[:5]])
+    turned = z.copy()
+    turned[:, 0] += np.array([1, -1, 3, 2, -4]) * 2 * np.pi
+    a, b = session.predict(z), session.predict(turned)
+    np.testing.assert_allclose(b.mean[:, 0] - a.mean[:, 0], turned[:, 0] - z[:, 0],
+                               atol=1e-9)
+    np.testing.assert_allclose(b.mean[:, 1], a.mean[:, 1], atol=1e-9)
+    np.testing.assert_allclose(b.variance, a.variance, rtol=1e-9)
+    # Two lengthscales for the angle (its sine and cosine), one each for x1 and u.
+    outputs = session.refresh().info.outputs
+    assert [len(o.hyperparameters.lengthscales) for o in outputs] == [4, 4]
+    with pytest.raises(excite.InvalidArgument) as error:
+        client.create_session(linear_config(angle_dims=[2]))
+    assert error.value.violations[0][0] == "config.angle_dims[0]", error.value.violations
+    session.delete()
+
+
 @pytest.mark.parametrize("strategy", ["rec", "pa"])
 def test_plan_respects_bounds_and_strategy(client, strategy):
     session = client.create_session(linear_config(strategy=strategy, horizon=4))
