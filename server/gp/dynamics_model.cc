@@ -586,9 +586,15 @@ void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
   const Eigen::MatrixXd zn = s.Normalise(z);
   const Eigen::RowVectorXd inv_h = s.half_width.cwiseInverse().transpose();
   const bool delta = s.options.target == Target::kDelta;
-  // Jacobians w.r.t. the normalised features (m x kernel_inputs per output),
-  // pulled back to z below.
-  std::vector<Eigen::MatrixXd> d_mean, d_var;
+  // The Jacobians are filled w.r.t. the features (sd x kernel_inputs per point)
+  // and, with angles, pulled back to z after the loop; without, features are z.
+  const Eigen::Index features = s.z.cols();
+  if (mean_jacobians != nullptr && features != zd) {
+    mean_jacobians->assign(m, Eigen::MatrixXd(sd, features));
+  }
+  if (variance_jacobians != nullptr && features != zd) {
+    variance_jacobians->assign(m, Eigen::MatrixXd(sd, features));
+  }
   Eigen::VectorXd mu, var;
   Eigen::MatrixXd dmu, dvar;
   for (int j = 0; j < sd; ++j) {
@@ -607,22 +613,25 @@ void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
       if (delta) mean->col(j) += z.col(j);
     }
     if (variance != nullptr) variance->col(j) = sj * sj * var;
-    if (mean_jacobians != nullptr) d_mean.push_back(sj * dmu * inv_h.asDiagonal());
-    if (variance_jacobians != nullptr) {
-      d_var.push_back(sj * sj * dvar * inv_h.asDiagonal());
+    for (Eigen::Index i = 0; i < m; ++i) {
+      if (mean_jacobians != nullptr) {
+        (*mean_jacobians)[i].row(j) = (sj * dmu.row(i)).cwiseProduct(inv_h);
+      }
+      if (variance_jacobians != nullptr) {
+        (*variance_jacobians)[i].row(j) = (sj * sj * dvar.row(i)).cwiseProduct(inv_h);
+      }
     }
   }
-  // Row i of the Jacobians: d / dz = (d / d features) (d features / dz).
-  Eigen::MatrixXd rows(sd, s.z.cols());
   for (Eigen::Index i = 0; i < m; ++i) {
+    // d / dz = (d / d features) (d features / dz).
     if (mean_jacobians != nullptr) {
-      for (int j = 0; j < sd; ++j) rows.row(j) = d_mean[j].row(i);
-      (*mean_jacobians)[i] = s.features.PullBack(rows, z.row(i));
+      if (features != zd) {
+        (*mean_jacobians)[i] = s.features.PullBack((*mean_jacobians)[i], z.row(i));
+      }
       if (delta) (*mean_jacobians)[i].diagonal().head(sd).array() += 1.0;
     }
-    if (variance_jacobians != nullptr) {
-      for (int j = 0; j < sd; ++j) rows.row(j) = d_var[j].row(i);
-      (*variance_jacobians)[i] = s.features.PullBack(rows, z.row(i));
+    if (variance_jacobians != nullptr && features != zd) {
+      (*variance_jacobians)[i] = s.features.PullBack((*variance_jacobians)[i], z.row(i));
     }
   }
 }
