@@ -276,6 +276,7 @@ absl::Status ExplorationRun::Explore() {
       ++random_steps_;
     } else {
       plan_ms_.push_back(MillisecondsSince(plan_start));
+      ++summary_.planned_by[service::StrategyShortName(plan->planned_by())];
       const int horizon = plan->horizon();
       const int apply = plan->apply_count();
       if (horizon < 1 || plan->inputs_size() != horizon * du_ || apply < 1 ||

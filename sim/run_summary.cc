@@ -66,6 +66,12 @@ std::string RunSummaryToJson(const RunSummary& summary) {
       summary.coverage_joint.has_value() ? JsonNumber(*summary.coverage_joint) : "null";
   const std::string left_safe_box =
       summary.left_safe_box.has_value() ? JsonNumber(*summary.left_safe_box) : "null";
+  std::string planned_by = "{";
+  for (const auto& [name, count] : summary.planned_by) {
+    absl::StrAppend(&planned_by, planned_by.size() > 1 ? ", " : "", JsonString(name),
+                    ": ", count);
+  }
+  planned_by += "}";
   return absl::StrCat(
       "{\n",                                                    //
       "  \"system\": ", JsonString(summary.system), ",\n",      //
@@ -84,6 +90,7 @@ std::string RunSummaryToJson(const RunSummary& summary) {
       "  \"rmse_history\": ", history, ",\n",  //
       "  \"plan_ms_p50\": ", JsonNumber(summary.plan_ms_p50), ",\n",
       "  \"plans\": ", summary.plans, ",\n",                //
+      "  \"planned_by\": ", planned_by, ",\n",              //
       "  \"random_steps\": ", summary.random_steps, ",\n",  //
       "  \"plan_retries\": ", summary.plan_retries, ",\n",  //
       "  \"left_safe_box\": ", left_safe_box, ",\n",        //

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,8 +43,11 @@ struct RunSummary {
   std::vector<RmsePoint> rmse_history;   // In order of samples.
   double plan_ms_p50 = 0.0;              // Median PlanInputs round trip [ms].
   int64_t plans = 0;                     // Successful PlanInputs calls.
-  int64_t random_steps = 0;              // Random inputs applied before min_samples.
-  int64_t plan_retries = 0;              // PlanInputs retried after DEADLINE_EXCEEDED.
+  // Successful PlanInputs calls per strategy that made the plan (its short name;
+  // for auto, the members its bandit drew).
+  std::map<std::string, int64_t> planned_by;
+  int64_t random_steps = 0;  // Random inputs applied before min_samples.
+  int64_t plan_retries = 0;  // PlanInputs retried after DEADLINE_EXCEEDED.
   // With a safe box (session.safety.state_bounds): the fraction of visited (true)
   // states outside it, in [0, 1]; not set without a box.
   std::optional<double> left_safe_box;
@@ -53,7 +57,8 @@ struct RunSummary {
 // The summary as one JSON object with the keys system, strategy, session, samples,
 // final_rmse, final_rmse_per_dimension ([...]), final_nlpd, final_inside_95,
 // rollout_rmse_10, rollout_rmse_30, coverage_marginal, coverage_joint,
-// rmse_history ([[samples, rmse], ...]), plan_ms_p50, plans, random_steps, plan_retries,
+// rmse_history ([[samples, rmse], ...]), plan_ms_p50, plans, planned_by
+// ({"rec": n, ...}), random_steps, plan_retries,
 // left_safe_box, wall_s. Non-finite numbers and a missing coverage_joint or left_safe_box
 // are written as null. Ends with a newline.
 std::string RunSummaryToJson(const RunSummary& summary);

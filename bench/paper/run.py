@@ -308,7 +308,7 @@ class Server:
 # ------------------------------------------------------------------------- trials
 
 
-def start_trial(t, sim_bin, address):
+def start_trial(t, sim_bin, address, session_override=""):
     os.makedirs(os.path.dirname(t.log_path), exist_ok=True)
     for p in (t.summary_path,):
         if os.path.exists(p):
@@ -317,6 +317,8 @@ def start_trial(t, sim_bin, address):
            f"--strategy={t.strategy}", f"--seed={t.seed}", f"--summary={t.summary_path}"]
     if t.samples:
         cmd.append(f"--samples={t.samples}")
+    if session_override:
+        cmd.append(f"--session_override={session_override}")
     logf = open(t.log_path, "wb")
     logf.write(("$ " + " ".join(cmd) + "\n").encode())
     logf.flush()
@@ -462,7 +464,7 @@ def run_trials(trials, args, servers, samples_of):
                     continue
                 t.server = min(servers, key=lambda s: s.running)
                 t.server.running += 1
-                start_trial(t, args.sim_bin, t.server.address)
+                start_trial(t, args.sim_bin, t.server.address, args.session_override)
                 running.append(t)
             for r in list(running):
                 if r.proc.poll() is None:
@@ -566,7 +568,7 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
     with open(os.path.join(out_dir, "trials.csv"), "w", encoding="utf-8") as f:
         f.write("system,strategy,trial,seed,status,samples,final_rmse,"
                 "coverage_marginal,coverage_joint,plan_ms_p50,wall_s,final_nlpd,"
-                "final_inside_95,rollout_rmse_10,rollout_rmse_30,error\n")
+                "final_inside_95,rollout_rmse_10,rollout_rmse_30,planned_by,error\n")
         for r in trial_records:
             s = r.get("result") or {}
             vals = [r["system"], r["strategy"], r["trial"], r["seed"], r["status"],
@@ -574,7 +576,8 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
                     s.get("coverage_marginal", ""), s.get("coverage_joint", ""),
                     s.get("plan_ms_p50", ""), s.get("wall_s", ""),
                     s.get("final_nlpd", ""), s.get("final_inside_95", ""),
-                    s.get("rollout_rmse_10", ""), s.get("rollout_rmse_30", "")]
+                    s.get("rollout_rmse_10", ""), s.get("rollout_rmse_30", ""),
+                    " ".join(f"{k}:{v}" for k, v in (s.get("planned_by") or {}).items())]
             vals = ["" if v is None else str(v) for v in vals]
             err = (r.get("error") or "").replace('"', "'")
             f.write(",".join(vals) + f',"{err}"\n')
@@ -865,6 +868,9 @@ def parse_args(argv):
     p.add_argument("--strategies", nargs="+", help="subset, e.g. rec pa greedy")
     p.add_argument("--trials", type=int, default=0, help="trials per pair (overrides)")
     p.add_argument("--samples", type=int, default=0, help="samples per trial (overrides)")
+    p.add_argument("--session_override", default="",
+                   help="SessionConfig textproto merged over every trial's session "
+                        "(excite-sim --session_override), e.g. a variant's members")
     p.add_argument("--jobs", type=int, default=2, help="excite-sim processes at once")
     p.add_argument("--servers", type=int, default=0,
                    help="excite-server processes (default: --jobs); each server "
@@ -938,7 +944,8 @@ def main(argv):
         "samples": samples_of, "skipped": skipped,
         "overrides": "".join(
             f", {name} {value} (overrides benchmark.json)"
-            for name, value in (("--trials", args.trials), ("--samples", args.samples))
+            for name, value in (("--trials", args.trials), ("--samples", args.samples),
+                                ("--session_override", args.session_override))
             if value),
     }
     t0 = time.monotonic()

@@ -66,6 +66,31 @@ absl::Status PlanOptions::Validate(int state_dim, int input_dim) const {
   if (absl::Status s = ValidateSignal(signal, strategy); !s.ok()) {
     return s;
   }
+  if (strategy == Strategy::kAuto) {
+    const std::vector<Strategy> members =
+        auto_members.empty() ? DefaultAutoMembers(state_lower.size() > 0) : auto_members;
+    for (size_t i = 0; i < members.size(); ++i) {
+      const Strategy member = members[i];
+      if (!CanBeAutoMember(member)) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            InfoOf(member).name,
+            " cannot be a member of auto (pa, sep and auto cannot; the others can)"));
+      }
+      for (size_t j = 0; j < i; ++j) {
+        if (members[j] == member) {
+          return absl::InvalidArgumentError(
+              absl::StrCat(InfoOf(member).name, " is named twice among auto's members"));
+        }
+      }
+      PlanOptions own = *this;
+      own.strategy = member;
+      own.auto_members.clear();
+      if (absl::Status s = own.Validate(state_dim, input_dim); !s.ok()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("auto's member ", InfoOf(member).name, ": ", s.message()));
+      }
+    }
+  }
   if (info.needs_state_bounds) {
     if (state_lower.size() != state_dim || state_upper.size() != state_dim ||
         !state_lower.allFinite() || !state_upper.allFinite() ||

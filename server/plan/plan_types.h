@@ -61,6 +61,9 @@ struct PlanOptions {
   // mean (OPAX scales beta with a confidence level; 1 is its order for
   // well-calibrated GPs).
   double optimism_beta = 1.0;
+  // kAuto: the member strategies its bandit draws from (each CanBeAutoMember,
+  // no repeats); empty: DefaultAutoMembers.
+  std::vector<Strategy> auto_members;
   // State constraints on the planned mean trajectory of every model-based
   // strategy (inactive by default).
   SafeBox safe_box;
@@ -107,6 +110,8 @@ struct PlanSummary {
   // units, margin included); 0 if it keeps the box (no feasible plan was found
   // otherwise: the plan is the least violating one).
   double safe_box_violation = 0.0;
+  // The strategy that made the plan: auto's drawn member, else the strategy.
+  Strategy planned_by = Strategy::kRec;
   // kSep only: the searched z* = (x*, u*) and its entropy H(z*) (nats).
   Eigen::VectorXd search_point;
   double search_entropy = 0.0;

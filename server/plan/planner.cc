@@ -11,6 +11,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "server/gp/flush_denormals.h"
+#include "server/plan/auto_planner.h"
 #include "server/plan/sep_planner.h"
 #include "server/plan/shooting_solver.h"
 
@@ -27,6 +28,9 @@ double Uniform01(std::mt19937_64& rng) {
 }  // namespace
 
 Planner::Planner(PlanOptions options) : options_(std::move(options)) {}
+Planner::Planner(Planner&&) noexcept = default;
+Planner& Planner::operator=(Planner&&) noexcept = default;
+Planner::~Planner() = default;
 
 absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
                                          const Eigen::VectorXd& x0, int64_t time_index,
@@ -61,8 +65,12 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
   const uint64_t call = calls_++;
 
   PlanSummary local;
+  local.planned_by = options_.strategy;
   absl::StatusOr<Plan> plan;
-  if (strategy.method == PlanMethod::kSignal) {
+  if (strategy.method == PlanMethod::kBandit) {
+    if (auto_ == nullptr) auto_ = std::make_unique<AutoPlanner>(options_);
+    plan = auto_->PlanInputs(model, x0, time_index, limits, &local);
+  } else if (strategy.method == PlanMethod::kSignal) {
     plan = PlanSignal(strategy, dx, time_index);
     local.status = PlanStatus::kConverged;
   } else if (strategy.method == PlanMethod::kSeparated) {

@@ -15,6 +15,8 @@
 
 namespace excite::plan {
 
+class AutoPlanner;
+
 // One session's planner: options in (PlanOptions, plan_types.h), a plan and a
 // summary out. Dispatches on options.strategy:
 //  - kRec, kPa, kGreedy: the paper's problem (trajopt_optim) by direct multiple
@@ -36,11 +38,16 @@ namespace excite::plan {
 //    the model is never evaluated (it need not be fitted), states/variances have 0
 //    rows, apply_count = M, the summary reports kConverged and objective 0.
 //  - kSep: separated search and control (sep_planner.h); needs state bounds.
+//  - kAuto: a bandit over member strategies (auto_planner.h), each planning with
+//    its own Planner; apply_count = 1.
 // Ipopt solves are serialised process-wide (MUMPS in Ipopt 3.11 is not
 // thread-safe). Not thread-safe itself: one session's calls are serialised.
 class Planner {
  public:
   explicit Planner(PlanOptions options);
+  Planner(Planner&&) noexcept;
+  Planner& operator=(Planner&&) noexcept;
+  ~Planner();
 
   // x0: the current state; time_index: its sample index k (>= 0), the position of
   // the first returned input in the model-free signals (the session passes the
@@ -75,6 +82,8 @@ class Planner {
   // roi's reference set (a function of the options only; made at the first plan).
   Eigen::MatrixXd reference_;
   uint64_t calls_ = 0;
+  // kAuto: its members' planners and bandit (made at the first plan).
+  std::unique_ptr<AutoPlanner> auto_;
 };
 
 }  // namespace excite::plan

@@ -115,8 +115,8 @@ StrategyInfo Row(Strategy strategy, absl::string_view name, absl::string_view su
   return info;
 }
 
-std::array<StrategyInfo, 10> MakeTable() {
-  std::array<StrategyInfo, 10> table;
+std::array<StrategyInfo, 11> MakeTable() {
+  std::array<StrategyInfo, 11> table;
   const auto at = [&table](Strategy s) -> StrategyInfo& {
     return table[static_cast<size_t>(s)];
   };
@@ -193,11 +193,18 @@ std::array<StrategyInfo, 10> MakeTable() {
   at(Strategy::kOptimistic).config_block = "optimistic";
   at(Strategy::kOptimistic).objective_scaling = kEntropyScaling;
   at(Strategy::kOptimistic).make_objective = &OptimisticInformation;
+
+  at(Strategy::kAuto) = Row(Strategy::kAuto, "auto",
+                            "a bandit (EXP3) over member strategies, each paid by the "
+                            "model's one-step error on the transitions its plans "
+                            "produce; applies one input per plan",
+                            PlanMethod::kBandit);
+  at(Strategy::kAuto).config_block = "auto";
   return table;
 }
 
-const std::array<StrategyInfo, 10>& Table() {
-  static const std::array<StrategyInfo, 10> table = MakeTable();
+const std::array<StrategyInfo, 11>& Table() {
+  static const std::array<StrategyInfo, 11> table = MakeTable();
   return table;
 }
 
@@ -207,6 +214,19 @@ absl::Span<const StrategyInfo> Strategies() { return Table(); }
 
 const StrategyInfo& InfoOf(Strategy strategy) {
   return Table()[static_cast<size_t>(strategy)];
+}
+
+bool CanBeAutoMember(Strategy strategy) {
+  const StrategyInfo& info = InfoOf(strategy);
+  return (info.method == PlanMethod::kTrajectory && !info.apply_all) ||
+         info.method == PlanMethod::kSignal;
+}
+
+std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds) {
+  std::vector<Strategy> members = {Strategy::kRec, Strategy::kOptimistic};
+  if (has_state_bounds) members.push_back(Strategy::kRoi);
+  members.push_back(Strategy::kRandom);
+  return members;
 }
 
 const StrategyInfo* FindStrategy(absl::string_view name) {

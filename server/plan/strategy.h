@@ -4,6 +4,7 @@
 #include <Eigen/Dense>
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
@@ -27,6 +28,7 @@ enum class Strategy {
   kMi,
   kRoi,
   kOptimistic,
+  kAuto,
 };
 
 struct PlanOptions;
@@ -41,6 +43,9 @@ enum class PlanMethod {
   // One multiple-shooting NLP maximising the strategy's objective along the
   // horizon (Ipopt).
   kTrajectory,
+  // auto: a bandit draws one member strategy per call (member_bandit.h), which
+  // plans; the plan's first input is applied.
+  kBandit,
 };
 
 // The open-loop signal of a kSignal strategy: inputs for samples
@@ -75,7 +80,7 @@ struct StrategyInfo {
   // hallucinated controls eta_i in [-1, 1]^dx the NLP also chooses (OPAX).
   bool optimistic_dynamics = false;
   // The config block whose defaults the strategy reads ("signal", "sep",
-  // "roi", "optimistic"), or empty.
+  // "roi", "optimistic", "auto"), or empty.
   absl::string_view config_block;
   // kTrajectory: Ipopt's obj_scaling_factor for -objective (planner.cc says
   // how each was measured) and the objective. kSignal: the signal.
@@ -89,6 +94,15 @@ absl::Span<const StrategyInfo> Strategies();
 const StrategyInfo& InfoOf(Strategy strategy);
 // The row named `name` ("rec"), or nullptr.
 const StrategyInfo* FindStrategy(absl::string_view name);
+
+// Whether `strategy` may be one of auto's members: the receding-horizon
+// trajectory strategies and the signals. Not pa (inside auto it applies one input,
+// so it is rec), sep (its plan must be applied whole) or auto itself.
+bool CanBeAutoMember(Strategy strategy);
+// auto's members when the config names none: rec, optimistic, roi (only with
+// state bounds, which it needs) and random, the one member that does not use the
+// model (docs/bench_paper/auto-rule-2026-12-06.md).
+std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds);
 
 // True for the strategies that never evaluate the model (prbs, chirp, random).
 inline bool IsModelFree(Strategy strategy) {

@@ -174,7 +174,10 @@ bool InRange(const NumberRule& rule, double value) {
 bool Fills(const NumberRule& rule, const v1::SessionConfig& config) {
   if (rule.filled_for.empty()) return true;
   if (rule.filled_for == "sparse") return config.sparse().above_samples() > 0;
-  return StrategyShortName(config.strategy()) == rule.filled_for;
+  for (const plan::StrategyInfo* info : StrategiesInUse(config)) {
+    if (info->name == rule.filled_for) return true;
+  }
+  return false;
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "common/angles.h"
@@ -147,26 +148,73 @@ absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& con
   return absl::OkStatus();  // restarts, max_iterations: config_rules.cc
 }
 
-// The state_bounds a strategy needs (StrategyInfo::needs_state_bounds: sep's
-// search box, roi's reference set).
-absl::Status ValidateStrategyNeeds(absl::string_view path,
-                                   const v1::SessionConfig& config) {
-  if (EngineStrategy(config.strategy()).needs_state_bounds &&
-      config.state_bounds_size() != config.state_dim()) {
-    return Invalid(Field(path, "state_bounds"),
-                   absl::StrCat(v1::Strategy_Name(config.strategy()),
-                                " needs state_dim (", config.state_dim(),
-                                ") intervals (its region is state_bounds x "
-                                "input_bounds), got ",
-                                config.state_bounds_size()));
+// AutoConfig: members each once, each one that can be a member; the default
+// (plan::DefaultAutoMembers) filled in for STRATEGY_AUTO when none is named.
+absl::Status ValidateAuto(absl::string_view path, v1::SessionConfig* config) {
+  if (config->strategy() != v1::STRATEGY_AUTO) return absl::OkStatus();
+  const std::string mpath = Field(Field(path, "auto"), "members");
+  auto* members = config->mutable_auto_()->mutable_members();
+  if (members->empty()) {
+    const bool bounds = config->state_bounds_size() == config->state_dim();
+    for (plan::Strategy member : plan::DefaultAutoMembers(bounds)) {
+      members->Add(WireStrategy(member));
+    }
+    return absl::OkStatus();
+  }
+  for (int i = 0; i < members->size(); ++i) {
+    const auto member = static_cast<v1::Strategy>(members->Get(i));
+    const std::string at = absl::StrCat(mpath, "[", i, "]");
+    if (member == v1::STRATEGY_UNSPECIFIED || !v1::Strategy_IsValid(member)) {
+      return Invalid(at, absl::StrCat("unknown strategy ", static_cast<int>(member),
+                                      "; valid: ", ValidStrategyNames()));
+    }
+    if (!plan::CanBeAutoMember(EngineStrategy(member).strategy)) {
+      return Invalid(at, absl::StrCat(v1::Strategy_Name(member),
+                                      " cannot be a member of STRATEGY_AUTO (pa would "
+                                      "be rec inside it, sep's plans must be applied "
+                                      "whole); any other strategy can"));
+    }
+    for (int j = 0; j < i; ++j) {
+      if (members->Get(j) == member) {
+        return Invalid(at, absl::StrCat(v1::Strategy_Name(member), " is named twice"));
+      }
+    }
   }
   return absl::OkStatus();
 }
 
+// The state_bounds a strategy needs (StrategyInfo::needs_state_bounds: sep's
+// search box, roi's reference set), auto's members' included.
+absl::Status ValidateStrategyNeeds(absl::string_view path,
+                                   const v1::SessionConfig& config) {
+  if (config.state_bounds_size() == config.state_dim()) return absl::OkStatus();
+  for (const plan::StrategyInfo* info : StrategiesInUse(config)) {
+    if (!info->needs_state_bounds) continue;
+    return Invalid(
+        Field(path, "state_bounds"),
+        absl::StrCat(
+            "STRATEGY_", absl::AsciiStrToUpper(info->name),
+            config.strategy() == v1::STRATEGY_AUTO ? " (a member of STRATEGY_AUTO)" : "",
+            " needs state_dim (", config.state_dim(),
+            ") intervals (its region is state_bounds x "
+            "input_bounds), got ",
+            config.state_bounds_size()));
+  }
+  return absl::OkStatus();
+}
+
+// Whether the config plans with a strategy that reads config block `block`.
+bool UsesBlock(const v1::SessionConfig& config, absl::string_view block) {
+  for (const plan::StrategyInfo* info : StrategiesInUse(config)) {
+    if (info->config_block == block) return true;
+  }
+  return false;
+}
+
 // OptimisticConfig: beta in (0, 10] when set; filled in (1) for
-// STRATEGY_OPTIMISTIC.
+// STRATEGY_OPTIMISTIC (alone or as a member of STRATEGY_AUTO).
 absl::Status ValidateOptimistic(absl::string_view path, v1::SessionConfig* config) {
-  const bool optimistic = EngineStrategy(config->strategy()).config_block == "optimistic";
+  const bool optimistic = UsesBlock(*config, "optimistic");
   if (config->optimistic().has_beta()) {
     const double beta = config->optimistic().beta();
     if (!std::isfinite(beta) || !(beta > 0.0) || beta > 10.0) {
@@ -184,7 +232,10 @@ absl::Status ValidateOptimistic(absl::string_view path, v1::SessionConfig* confi
 absl::Status ValidateSparse(absl::string_view path, v1::SessionConfig* config) {
   const std::string spath = Field(path, "sparse");
   v1::SparseConfig* sparse = config->mutable_sparse();
-  const bool joint = EngineStrategy(config->strategy()).needs_joint_covariances;
+  bool joint = false;
+  for (const plan::StrategyInfo* info : StrategiesInUse(*config)) {
+    joint = joint || info->needs_joint_covariances;
+  }
   if (!sparse->has_above_samples()) {
     sparse->set_above_samples(joint ? 0 : kDefaultSparseAboveSamples);
   }
@@ -399,6 +450,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
                              "got ",
                              refit->growth())));
   }
+  if (v1::Strategy_IsValid(config->strategy())) problems.Add(ValidateAuto(path, config));
   if (dims_ok) {
     problems.Add(ValidateStrategyNeeds(path, *config));
     problems.Add(ValidateOptimistic(path, config));

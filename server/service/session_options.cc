@@ -143,6 +143,10 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
     options.roi_reference_points = config.roi().reference_points();
   }
   if (config.optimistic().has_beta()) options.optimism_beta = config.optimistic().beta();
+  for (int member : config.auto_().members()) {
+    options.auto_members.push_back(
+        EngineStrategy(static_cast<v1::Strategy>(member)).strategy);
+  }
   return options;
 }
 

@@ -4,6 +4,7 @@
 #include "server/service/resource_name.h"
 #include "server/service/session_options.h"
 #include "server/service/store_conversion.h"
+#include "server/service/strategy_names.h"
 
 namespace excite::service {
 namespace {
@@ -52,6 +53,7 @@ v1::PlanInputsResponse PlanToProto(const PlanResult& result) {
   response.set_iterations(result.summary.iterations);
   response.set_wall_time_ms(result.summary.wall_time_ms);
   response.set_safe_box_violation(result.summary.safe_box_violation);
+  response.set_planned_by(WireStrategy(result.summary.planned_by));
   response.set_model_version(result.model_version);
   return response;
 }

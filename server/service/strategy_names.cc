@@ -42,4 +42,22 @@ const plan::StrategyInfo& EngineStrategy(v1::Strategy strategy) {
   return info != nullptr ? *info : plan::InfoOf(plan::Strategy::kRec);
 }
 
+v1::Strategy WireStrategy(plan::Strategy strategy) {
+  v1::Strategy wire = v1::STRATEGY_REC;
+  const std::string name =
+      absl::StrCat(kPrefix, absl::AsciiStrToUpper(plan::InfoOf(strategy).name));
+  v1::Strategy_Parse(name, &wire);  // every row has its enum value (a test says so)
+  return wire;
+}
+
+std::vector<const plan::StrategyInfo*> StrategiesInUse(const v1::SessionConfig& config) {
+  std::vector<const plan::StrategyInfo*> used = {&EngineStrategy(config.strategy())};
+  if (used.front()->strategy == plan::Strategy::kAuto) {
+    for (int member : config.auto_().members()) {
+      used.push_back(&EngineStrategy(static_cast<v1::Strategy>(member)));
+    }
+  }
+  return used;
+}
+
 }  // namespace excite::service

@@ -2,6 +2,7 @@
 #define EXCITE_SERVER_SERVICE_STRATEGY_NAMES_H_
 
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
@@ -22,6 +23,13 @@ absl::StatusOr<v1::Strategy> ParseStrategyName(absl::string_view name);
 // The engine's row of a wire strategy (UNSPECIFIED and unknown values: rec's,
 // the default a validated config has).
 const plan::StrategyInfo& EngineStrategy(v1::Strategy strategy);
+
+// The wire value of an engine strategy (plan::Strategy::kRec -> v1::STRATEGY_REC).
+v1::Strategy WireStrategy(plan::Strategy strategy);
+
+// The engine rows a config plans with: its strategy's, and for STRATEGY_AUTO its
+// members' (as auto.members lists them; validation fills the default in).
+std::vector<const plan::StrategyInfo*> StrategiesInUse(const v1::SessionConfig& config);
 
 }  // namespace excite::service
 

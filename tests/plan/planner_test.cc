@@ -8,6 +8,7 @@
 #include <random>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -157,9 +158,9 @@ TEST(PlannerTest, WarmStartIsThePreviousPlanShifted) {
     const auto first = planner.PlanInputs(model, x0, 0, PlanLimits{}, nullptr);
     ASSERT_TRUE(first.ok());
     o = planner.options();
-    // A second planner would not have the warm start; reuse this one with the
-    // options changed through a copy that keeps its state.
-    Planner probe = planner;
+    // A second planner would not have the warm start; reuse this one (moved, so
+    // that it keeps its state) with the options changed.
+    Planner probe = std::move(planner);
     const_cast<PlanOptions&>(probe.options()).restarts = 0;
     const_cast<PlanOptions&>(probe.options()).max_iterations = 0;
     const int shift = first->apply_count;

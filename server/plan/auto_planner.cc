@@ -1,0 +1,85 @@
+#include "server/plan/auto_planner.h"
+
+#include <utility>
+
+#include "common/angles.h"
+#include "server/plan/counter_random.h"
+#include "server/plan/rollout.h"
+
+namespace excite::plan {
+namespace {
+
+constexpr uint64_t kAutoStream = 0x6175746f;  // "auto"
+
+std::vector<Strategy> MembersOf(const PlanOptions& options) {
+  if (!options.auto_members.empty()) return options.auto_members;
+  return DefaultAutoMembers(options.state_lower.size() > 0);
+}
+
+}  // namespace
+
+AutoPlanner::AutoPlanner(const PlanOptions& options)
+    : seed_(options.seed),
+      angle_dims_(options.angle_dims),
+      members_(MembersOf(options)),
+      bandit_(static_cast<int>(members_.size()), kAutoGamma) {
+  planners_.reserve(members_.size());
+  for (Strategy member : members_) {
+    PlanOptions own = options;
+    own.strategy = member;
+    own.auto_members.clear();
+    planners_.emplace_back(std::move(own));
+  }
+}
+
+void AutoPlanner::ScorePending(const Eigen::VectorXd& x0, int64_t time_index) {
+  if (!pending_.has_value()) return;
+  const Pending pending = *std::move(pending_);
+  pending_.reset();
+  // Not one sample later: the client applied more or fewer inputs than the first,
+  // so x0 is not the answer to it.
+  if (time_index != pending.time_index + 1 || pending.predicted.size() != x0.size()) {
+    return;
+  }
+  Eigen::VectorXd error = x0 - pending.predicted;
+  for (int a : angle_dims_) error(a) = WrapAngle(error(a));
+  if (!error.allFinite()) return;
+  bandit_.Reward(pending.member, pending.probability, surprise_.Reward(error));
+}
+
+absl::StatusOr<Plan> AutoPlanner::PlanInputs(const gp::DynamicsPredictor& model,
+                                             const Eigen::VectorXd& x0,
+                                             int64_t time_index, const PlanLimits& limits,
+                                             PlanSummary* summary) {
+  ScorePending(x0, time_index);
+  const uint64_t call = calls_++;
+  const Eigen::VectorXd probabilities = bandit_.Probabilities();
+  const int member = bandit_.Draw(CounterUniform(seed_, kAutoStream, 0, call));
+  PlanSummary local;
+  absl::StatusOr<Plan> plan = planners_[static_cast<size_t>(member)].PlanInputs(
+      model, x0, time_index, limits, &local);
+  if (!plan.ok()) return plan.status();
+  plan->apply_count = 1;
+  if (plan->states.rows() == 0) {
+    // A signal member: its inputs rolled out through the mean, as the other
+    // members' plans report them.
+    const Rollout rollout = RollOut(model, x0, plan->inputs);
+    if (!rollout.valid) {
+      return absl::InternalError(
+          "the model's predictions are not finite along the signal's inputs");
+    }
+    plan->states = rollout.states;
+    plan->variances = rollout.variances;
+  }
+  // The first transition's predicted mean, with the model as it is now.
+  Eigen::MatrixXd z0(1, model.z_dim());
+  z0 << x0.transpose(), plan->inputs.row(0);
+  Eigen::MatrixXd mean;
+  model.Predict(z0, &mean, nullptr, nullptr, nullptr);
+  pending_ = Pending{member, probabilities(member), time_index, mean.row(0).transpose()};
+  local.planned_by = members_[static_cast<size_t>(member)];
+  if (summary != nullptr) *summary = local;
+  return plan;
+}
+
+}  // namespace excite::plan

@@ -1,0 +1,62 @@
+#ifndef EXCITE_SERVER_PLAN_AUTO_PLANNER_H_
+#define EXCITE_SERVER_PLAN_AUTO_PLANNER_H_
+
+#include <Eigen/Dense>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "server/gp/dynamics_predictor.h"
+#include "server/plan/member_bandit.h"
+#include "server/plan/plan_types.h"
+#include "server/plan/planner.h"
+
+namespace excite::plan {
+
+// EXP3's exploration share for auto: EXP3's choice sqrt(K ln K / ((e - 1) T)) for
+// K = 4 members and T = 300 plans (the paper's budget) is 0.104
+// (docs/bench_paper/auto-rule-2026-12-06.md).
+inline constexpr double kAutoGamma = 0.1;
+
+// The auto strategy: at each call a bandit (MemberBandit) draws one member
+// (options.auto_members, or DefaultAutoMembers), whose own Planner plans; only
+// the plan's first input is applied. When the next call starts exactly one
+// sample later, its state is the plant's answer to that input, and the member is
+// paid by the model's one-step error on that transition, predicted before the
+// transition existed (SurpriseScale): members are paid for taking the plant
+// where the model is wrong, which needs no ground truth. Not thread-safe.
+class AutoPlanner {
+ public:
+  explicit AutoPlanner(const PlanOptions& options);
+
+  absl::StatusOr<Plan> PlanInputs(const gp::DynamicsPredictor& model,
+                                  const Eigen::VectorXd& x0, int64_t time_index,
+                                  const PlanLimits& limits, PlanSummary* summary);
+
+  const std::vector<Strategy>& members() const { return members_; }
+  Eigen::VectorXd Probabilities() const { return bandit_.Probabilities(); }
+
+ private:
+  // The last plan's first transition, to be scored by the next call.
+  struct Pending {
+    int member = 0;
+    double probability = 1.0;
+    int64_t time_index = 0;
+    Eigen::VectorXd predicted;  // mean of the next state under the model then
+  };
+  void ScorePending(const Eigen::VectorXd& x0, int64_t time_index);
+
+  uint64_t seed_;
+  std::vector<int> angle_dims_;
+  std::vector<Strategy> members_;
+  std::vector<Planner> planners_;
+  MemberBandit bandit_;
+  SurpriseScale surprise_;
+  std::optional<Pending> pending_;
+  uint64_t calls_ = 0;
+};
+
+}  // namespace excite::plan
+
+#endif  // EXCITE_SERVER_PLAN_AUTO_PLANNER_H_
