@@ -52,6 +52,7 @@ COLORS = {
     "mi": "#e377c2",
     "roi": "#17becf",
     "optimistic": "#bcbd22",
+    "auto": "#9edae5",
     "uniform": "#000000",
 }
 
@@ -68,6 +69,7 @@ MARKERS = {
     "mi": "*",
     "roi": "X",
     "optimistic": "d",
+    "auto": "h",
     "uniform": "",
 }
 

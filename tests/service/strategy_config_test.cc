@@ -3,6 +3,7 @@
 // state_bounds), and the safe box of every model-based strategy (SafetyConfig).
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -230,6 +231,65 @@ TEST(StrategyConfigTest, Optimistic) {
   EXPECT_FALSE(c.has_optimistic());
   c.mutable_optimistic()->set_beta(-2.0);
   ExpectInvalid(c, "config.optimistic.beta");
+}
+
+TEST(StrategyConfigTest, AutoFillsItsMembersAndTheirDefaults) {
+  v1::SessionConfig c = Config(v1::STRATEGY_AUTO);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_THAT(c.auto_().members(),
+              ::testing::ElementsAre(v1::STRATEGY_REC, v1::STRATEGY_OPTIMISTIC,
+                                     v1::STRATEGY_ROI, v1::STRATEGY_RANDOM));
+  // The members' blocks get their defaults; roi keeps the GP exact.
+  EXPECT_EQ(c.optimistic().beta(), 1.0);
+  EXPECT_EQ(c.roi().reference_points(), 256);
+  EXPECT_EQ(c.signal().random_hold(), 1);
+  EXPECT_EQ(c.sparse().above_samples(), 0);
+  plan::PlanOptions o = PlanOptionsFromConfig(c);
+  EXPECT_EQ(o.strategy, plan::Strategy::kAuto);
+  EXPECT_EQ(o.auto_members,
+            (std::vector<plan::Strategy>{plan::Strategy::kRec, plan::Strategy::kOptimistic,
+                                         plan::Strategy::kRoi, plan::Strategy::kRandom}));
+  EXPECT_TRUE(o.Validate(2, 1).ok());
+
+  // Without state bounds roi is left out, and the GP may turn sparse.
+  c = Config(v1::STRATEGY_AUTO);
+  c.clear_state_bounds();
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_THAT(c.auto_().members(), ::testing::ElementsAre(v1::STRATEGY_REC,
+                                                          v1::STRATEGY_OPTIMISTIC,
+                                                          v1::STRATEGY_RANDOM));
+  EXPECT_GT(c.sparse().above_samples(), 0);
+
+  // Named members are kept as named.
+  c = Config(v1::STRATEGY_AUTO);
+  c.mutable_auto_()->add_members(v1::STRATEGY_MI);
+  c.mutable_auto_()->add_members(v1::STRATEGY_PRBS);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_THAT(c.auto_().members(),
+              ::testing::ElementsAre(v1::STRATEGY_MI, v1::STRATEGY_PRBS));
+  EXPECT_EQ(c.signal().prbs_min_hold(), 5);
+  EXPECT_FALSE(c.has_optimistic());
+}
+
+TEST(StrategyConfigTest, AutoRefusesMembersItCannotUse) {
+  for (v1::Strategy bad : {v1::STRATEGY_PA, v1::STRATEGY_SEP, v1::STRATEGY_AUTO}) {
+    v1::SessionConfig c = Config(v1::STRATEGY_AUTO);
+    c.mutable_auto_()->add_members(v1::STRATEGY_REC);
+    c.mutable_auto_()->add_members(bad);
+    ExpectInvalid(c, "config.auto.members[1]", "cannot be a member of STRATEGY_AUTO");
+  }
+  v1::SessionConfig c = Config(v1::STRATEGY_AUTO);
+  c.mutable_auto_()->add_members(v1::STRATEGY_REC);
+  c.mutable_auto_()->add_members(v1::STRATEGY_REC);
+  ExpectInvalid(c, "config.auto.members[1]", "STRATEGY_REC is named twice");
+  c = Config(v1::STRATEGY_AUTO);
+  c.mutable_auto_()->add_members(static_cast<v1::Strategy>(99));
+  ExpectInvalid(c, "config.auto.members[0]", "unknown strategy 99; valid: ");
+  c = Config(v1::STRATEGY_AUTO);
+  c.clear_state_bounds();
+  c.mutable_auto_()->add_members(v1::STRATEGY_ROI);
+  ExpectInvalid(c, "config.state_bounds",
+                "STRATEGY_ROI (a member of STRATEGY_AUTO) needs state_dim (2)");
 }
 
 TEST(StrategyConfigTest, SafeBox) {

@@ -195,7 +195,7 @@ TEST(SimConfigTest, StrategyNames) {
             absl::StatusCode::kInvalidArgument);
   // Every name round-trips.
   for (const char* name : {"rec", "pa", "greedy", "prbs", "chirp", "random", "sep", "mi",
-                           "roi", "optimistic"}) {
+                           "roi", "optimistic", "auto"}) {
     absl::StatusOr<v1::Strategy> strategy = service::ParseStrategyName(name);
     ASSERT_TRUE(strategy.ok()) << name;
     EXPECT_EQ(service::StrategyShortName(*strategy), name);
