@@ -26,6 +26,7 @@ RunSummary Example() {
   summary.rmse_history = {{10, 1.5}, {20, 0.5}};
   summary.plan_ms_p50 = 12.0;
   summary.plans = 18;
+  summary.planned_by = {{"rec", 11}, {"random", 7}};
   summary.random_steps = 2;
   summary.wall_s = 3.0;
   return summary;
@@ -49,6 +50,7 @@ TEST(RunSummaryTest, Json) {
             "  \"rmse_history\": [[10, 1.5], [20, 0.5]],\n"
             "  \"plan_ms_p50\": 12,\n"
             "  \"plans\": 18,\n"
+            "  \"planned_by\": {\"random\": 7, \"rec\": 11},\n"
             "  \"random_steps\": 2,\n"
             "  \"plan_retries\": 0,\n"
             "  \"left_safe_box\": null,\n"
