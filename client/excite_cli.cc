@@ -11,13 +11,16 @@
 //   excite export NAME FILE
 //   excite import FILE [--session_id ID]
 //
-// add streams transitions from a CSV file (or stdin) into a session, one row per
-// transition: x (state_dim numbers), u (input_dim), x_next (state_dim) and
-// optionally a sequence number; without one, rows are numbered after the
+// add streams transitions from a CSV file (or stdin) into a session, in the layout
+// of client/transition_csv.h (the one excite-sim --trajectory writes): one row per
+// transition, x (state_dim numbers), u (input_dim), x_next (state_dim) and
+// optionally an integer sequence number; without one, rows are numbered after the
 // session's last sequence (so they are always added; with one, a row whose number
-// is stored is not stored again, and a rerun is safe). export writes the session (config,
-// samples, last hyperparameters) to FILE as a binary SessionArchive; import creates a
-// session from such a file (under its exported id unless --session_id is given).
+// is stored is not stored again, and a rerun is safe). Any row that is not such
+// numbers is an error naming its line; nothing is sent then. export writes the session
+// (config, samples, last hyperparameters) to FILE as a binary SessionArchive; import
+// creates a session from such a file (under its exported id unless --session_id is
+// given).
 // --output=json prints each result as one JSON document (protobuf's JSON mapping).
 //
 // NAME is "sessions/{id}" or just the id. Exit status: 0 on success, 1 when the
@@ -46,6 +49,7 @@
 #include "absl/strings/strip.h"
 #include "client/connection_flags.h"
 #include "client/excite_client.h"
+#include "client/transition_csv.h"
 #include "common/usage.h"
 #include "google/protobuf/text_format.h"
 #include "google/protobuf/util/json_util.h"
@@ -69,6 +73,9 @@ ABSL_FLAG(
     "sessions create: comma-separated KEY=VALUE labels, e.g. plant=pendulum,lab=b12.");
 ABSL_FLAG(std::string, session_id, "",
           "import: id of the new session (default: the exported session's id).");
+ABSL_FLAG(std::string, header, "auto",
+          "add: whether the CSV's first row is a header: yes, no, or auto (it is if "
+          "every field is a name, not a number).");
 ABSL_FLAG(int, timeout_s, 60, "Deadline of each call in seconds.");
 ABSL_FLAG(int, max_message_mb, 64,
           "Largest message sent or received, in MiB (export/import of big sessions).");
@@ -84,7 +91,9 @@ constexpr char kUsage[] =
     "  sessions delete NAME\n"
     "  predict --session NAME --z 'v1,v2,...' [--include_noise]\n"
     "  plan --session NAME --state 'x1,x2,...'\n"
-    "  add NAME [FILE]   (CSV rows x,u,x_next[,sequence]; stdin without FILE)\n"
+    "  add NAME [FILE] [--header=auto|yes|no]\n"
+    "                    (CSV x0..,u0..,x0_next..[,sequence], as excite-sim\n"
+    "                    --trajectory writes it; stdin without FILE)\n"
     "  export NAME FILE\n"
     "  import FILE [--session_id ID]\n"
     "NAME is sessions/{id} or {id}. --output=json prints JSON.";
@@ -356,46 +365,6 @@ int Import(excite::client::ExciteClient& client, const std::vector<std::string>&
   return 0;
 }
 
-// The transitions of a CSV text: one row x, u, x_next [, sequence] each; blank
-// lines, '#' comments and a non-numeric first row (a header) are skipped. Rows
-// without a sequence number are numbered from `next_sequence`.
-absl::StatusOr<std::vector<excite::v1::Transition>> ParseTransitionsCsv(
-    const std::string& text, int dx, int du, int64_t next_sequence) {
-  const int columns = 2 * dx + du;
-  std::vector<excite::v1::Transition> transitions;
-  int line_number = 0;
-  for (absl::string_view line : absl::StrSplit(text, '\n')) {
-    ++line_number;
-    line = absl::StripAsciiWhitespace(line);
-    if (line.empty() || absl::StartsWith(line, "#")) continue;
-    std::vector<double> values;
-    for (absl::string_view field : absl::StrSplit(line, ',')) {
-      double v = 0.0;
-      if (!absl::SimpleAtod(absl::StripAsciiWhitespace(field), &v)) {
-        values.clear();
-        break;
-      }
-      values.push_back(v);
-    }
-    if (values.empty() && transitions.empty() && line_number == 1) continue;  // header
-    if (values.size() != static_cast<size_t>(columns) &&
-        values.size() != static_cast<size_t>(columns + 1)) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "line ", line_number, ": want ", columns, " numbers (x: ", dx, ", u: ", du,
-          ", x_next: ", dx, ") and optionally a sequence number, found \"", line, "\""));
-    }
-    excite::v1::Transition t;
-    t.mutable_state()->Add(values.begin(), values.begin() + dx);
-    t.mutable_input()->Add(values.begin() + dx, values.begin() + dx + du);
-    t.mutable_next_state()->Add(values.begin() + dx + du, values.begin() + columns);
-    t.set_sequence(values.size() > static_cast<size_t>(columns)
-                       ? static_cast<int64_t>(values.back())
-                       : next_sequence++);
-    transitions.push_back(std::move(t));
-  }
-  return transitions;
-}
-
 int Add(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
   if (args.size() != 2 && args.size() != 3) return UsageError("add NAME [FILE]");
   const std::string name = FullName(args[1]);
@@ -413,9 +382,13 @@ int Add(excite::client::ExciteClient& client, const std::vector<std::string>& ar
   }
   absl::StatusOr<excite::v1::Session> session = client.GetSession(name);
   if (!session.ok()) return Fail(session.status());
+  absl::StatusOr<excite::client::CsvHeader> header =
+      excite::client::ParseCsvHeaderMode(absl::GetFlag(FLAGS_header));
+  if (!header.ok()) return UsageError(std::string(header.status().message()));
   absl::StatusOr<std::vector<excite::v1::Transition>> transitions =
-      ParseTransitionsCsv(text, session->config().state_dim(),
-                          session->config().input_dim(), session->last_sequence() + 1);
+      excite::client::ParseTransitionCsv(text, session->config().state_dim(),
+                                         session->config().input_dim(),
+                                         session->last_sequence() + 1, *header);
   if (!transitions.ok()) {
     return LocalFail(absl::InvalidArgumentError(absl::StrCat(
         args.size() == 3 ? args[2] : "stdin", ": ", transitions.status().message())));

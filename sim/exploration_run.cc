@@ -12,6 +12,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "client/transition_csv.h"
 #include "server/service/strategy_names.h"
 #include "sim/evaluation.h"
 #include "sim/portable_random.h"
@@ -358,20 +359,10 @@ absl::Status ExplorationRun::FlushAndMaybeEvaluate() {
 void ExplorationRun::WriteTrajectory(const std::vector<v1::Transition>& stored) {
   std::ostream& out = *options_.trajectory;
   if (!trajectory_header_written_) {
-    out << "step";
-    for (int i = 0; i < dx_; ++i) out << ",x" << i;
-    for (int j = 0; j < du_; ++j) out << ",u" << j;
-    for (int i = 0; i < dx_; ++i) out << ",x" << i << "_next";
-    out << "\n";
+    out << client::TransitionCsvHeader(dx_, du_) << "\n";
     trajectory_header_written_ = true;
   }
-  for (const v1::Transition& t : stored) {
-    out << t.sequence();
-    for (double v : t.state()) out << "," << absl::StrFormat("%.17g", v);
-    for (double v : t.input()) out << "," << absl::StrFormat("%.17g", v);
-    for (double v : t.next_state()) out << "," << absl::StrFormat("%.17g", v);
-    out << "\n";
-  }
+  for (const v1::Transition& t : stored) out << client::TransitionCsvRow(t) << "\n";
 }
 
 absl::Status ExplorationRun::RollOut() {

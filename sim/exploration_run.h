@@ -27,9 +27,9 @@ struct ExplorationOptions {
   // jump between states): it shows how much a strategy could still win. The
   // server is never asked to plan; the summary's strategy is "uniform".
   bool uniform_design = false;
-  // Every stored transition as a CSV row here, once the server acknowledged it:
-  // step, x (measured, state_dim columns), u (as applied), x_next (measured),
-  // after a header line (step,x0,..,u0,..,x0_next,..). May be null.
+  // Every stored transition as a CSV row here, once the server acknowledged it,
+  // in the layout `excite add` reads (client/transition_csv.h): x (measured), u
+  // (as applied), x_next (measured), sequence, under a header. May be null.
   std::ostream* trajectory = nullptr;
 };
 

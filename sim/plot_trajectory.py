@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 
 
 def read_trajectory(path):
-    """(steps, x, u) from the CSV excite-sim writes (header step,x0..,u0..,x0_next..)."""
+    """(steps, x, u) from the CSV excite-sim writes (header x0..,u0..,x0_next..,sequence)."""
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
     if len(rows) < 2:
@@ -27,10 +27,10 @@ def read_trajectory(path):
     header = rows[0]
     xs = [i for i, name in enumerate(header) if name.startswith("x") and "_" not in name]
     us = [i for i, name in enumerate(header) if name.startswith("u")]
-    if header[0] != "step" or not xs or not us:
+    if header[-1] != "sequence" or not xs or not us:
         raise ValueError(f"{path}: not an excite-sim trajectory (header {header})")
     data = np.array([[float(v) for v in row] for row in rows[1:]])
-    return data[:, 0], data[:, xs], data[:, us]
+    return data[:, -1], data[:, xs], data[:, us]
 
 
 def plot(path, out, dims):

@@ -40,7 +40,8 @@ ABSL_FLAG(std::string, session_override, "",
           "flags, e.g. 'refit { growth: 0.05 } sparse { above_samples: 0 }'");
 ABSL_FLAG(std::string, summary, "", "write the JSON run summary to this file");
 ABSL_FLAG(std::string, trajectory, "",
-          "write every stored transition to this CSV file (step, x, u, x_next)");
+          "write every stored transition to this CSV file (x, u, x_next, sequence: "
+          "the layout excite add reads)");
 ABSL_FLAG(bool, keep_session, false, "keep the session on the server at the end");
 ABSL_FLAG(std::string, session_id, "", "session id to ask for; empty: server's choice");
 ABSL_FLAG(int32_t, connect_timeout_s, 10, "how long to wait for the server to be ready");

@@ -229,11 +229,31 @@ TEST_F(EndToEndTest, CliExportsAndImportsASession) {
       << ReadFileOrEmpty(sim_err_);
   // --trajectory: a header and one row per stored transition, numbered from 0.
   const std::string rows = ReadFileOrEmpty(trajectory);
-  EXPECT_EQ(rows.rfind("step,x0,x1,u0,x0_next,x1_next\n0,", 0), 0u) << rows;
+  EXPECT_EQ(rows.rfind("x0,x1,u0,x0_next,x1_next,sequence\n", 0), 0u) << rows;
   EXPECT_EQ(std::count(rows.begin(), rows.end(), '\n'), 13) << rows;
-  EXPECT_NE(rows.find("\n11,"), std::string::npos) << rows;
-  const std::string file = work_.path() + "/cli-src.excite";
+  EXPECT_NE(rows.find(",0\n"), std::string::npos) << rows;
+  EXPECT_NE(rows.find(",11\n"), std::string::npos) << rows;
   std::string out, err;
+  // It is what excite add reads: into a new session, all 12 with their numbers,
+  // and again, nothing twice.
+  ASSERT_EQ(RunCli({"sessions", "create", "--config=" EXCITE_PENDULUM_CONFIG, "--id=csv"},
+                   &out, &err),
+            0)
+      << err;
+  ASSERT_EQ(RunCli({"add", "csv", trajectory}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("12 stored, 0 already there"), std::string::npos) << out;
+  ASSERT_EQ(RunCli({"add", "csv", trajectory}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("0 stored, 12 already there"), std::string::npos) << out;
+  // A mistyped number is an error naming the line, and nothing is added.
+  const std::string typo = work_.path() + "/typo.csv";
+  std::ofstream(typo) << "0.1,0.2,O.5,0.1,0.2\n1,2,3,4,5\n2,3,4,5,6\n";
+  EXPECT_EQ(RunCli({"add", "csv", typo}, &out, &err), 1);
+  EXPECT_NE(err.find("typo.csv: line 1, column 3: \"O.5\" is not a finite number"),
+            std::string::npos)
+      << err;
+  ASSERT_EQ(RunCli({"sessions", "get", "csv"}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("sample_count: 12"), std::string::npos) << out;
+  const std::string file = work_.path() + "/cli-src.excite";
   ASSERT_EQ(RunCli({"export", "cli-src", file}, &out, &err), 0) << err;
   EXPECT_NE(out.find("exported sessions/cli-src (12 samples"), std::string::npos) << out;
   ASSERT_GT(std::filesystem::file_size(file), 0u);
@@ -330,7 +350,9 @@ TEST_F(EndToEndTest, CliDoesAFirstWorkflowAlone) {
   EXPECT_NE(err.find("excite: cannot read /no/such.textproto"), std::string::npos) << err;
   std::ofstream(work_.path() + "/bad.csv") << "0,0,0,0,0\n1,2,3\n";
   EXPECT_EQ(RunCli({"add", "first", work_.path() + "/bad.csv"}, &out, &err), 1);
-  EXPECT_NE(err.find("bad.csv: line 2: want 5 numbers"), std::string::npos) << err;
+  EXPECT_NE(err.find("bad.csv: line 2: want 5 comma-separated numbers"),
+            std::string::npos)
+      << err;
   EXPECT_EQ(RunCli({"export", "first", "/no/such/dir/x.excite"}, &out, &err), 1);
   EXPECT_EQ(err.find("INVALID_ARGUMENT"), std::string::npos) << err;
   EXPECT_EQ(err.find("NOT_FOUND"), std::string::npos) << err;

@@ -50,7 +50,7 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// The sequences in an excite-sim --trajectory file (its first column).
+// The sequences in an excite-sim --trajectory file (its last column).
 std::vector<int64_t> AcknowledgedSequences(const std::string& path) {
   std::ifstream in(path);
   std::vector<int64_t> sequences;
@@ -58,7 +58,7 @@ std::vector<int64_t> AcknowledgedSequences(const std::string& path) {
   std::getline(in, line);  // header
   while (std::getline(in, line)) {
     int64_t sequence = 0;
-    if (absl::SimpleAtoi(line.substr(0, line.find(',')), &sequence)) {
+    if (absl::SimpleAtoi(line.substr(line.rfind(',') + 1), &sequence)) {
       sequences.push_back(sequence);
     }
   }

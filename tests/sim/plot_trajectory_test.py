@@ -17,10 +17,10 @@ def run(*args):
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         csv = pathlib.Path(tmp) / "run.csv"
-        lines = ["step,x0,x1,u0,x0_next,x1_next"]
+        lines = ["x0,x1,u0,x0_next,x1_next,sequence"]
         for k in range(50):
             x0, x1, u = math.sin(0.1 * k), math.cos(0.1 * k), (-1) ** k
-            lines.append(f"{k},{x0},{x1},{u},{x0 + 0.01},{x1 - 0.01}")
+            lines.append(f"{x0},{x1},{u},{x0 + 0.01},{x1 - 0.01},{k}")
         csv.write_text("\n".join(lines) + "\n")
         result = run(str(csv))
         assert result.returncode == 0, result.stderr
