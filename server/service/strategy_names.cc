@@ -24,12 +24,14 @@ std::string StrategyShortName(v1::Strategy strategy) {
 }
 
 absl::StatusOr<v1::Strategy> ParseStrategyName(absl::string_view name) {
+  std::string wanted = absl::AsciiStrToLower(name);
+  if (absl::StartsWith(wanted, "strategy_")) wanted.erase(0, kPrefix.size());
   std::vector<std::string> valid;
   const google::protobuf::EnumDescriptor* strategies = v1::Strategy_descriptor();
   for (int i = 0; i < strategies->value_count(); ++i) {
     const auto value = static_cast<v1::Strategy>(strategies->value(i)->number());
     if (value == v1::STRATEGY_UNSPECIFIED) continue;
-    if (StrategyShortName(value) == name) return value;
+    if (StrategyShortName(value) == wanted) return value;
     valid.push_back(StrategyShortName(value));
   }
   return absl::InvalidArgumentError(absl::StrCat("unknown strategy \"", name,

@@ -16,8 +16,8 @@ namespace excite::service {
 // UNSPECIFIED and unknown values are "rec" (validation fills in rec).
 std::string StrategyShortName(v1::Strategy strategy);
 
-// The strategy whose short name is `name` ("rec"). INVALID_ARGUMENT listing the
-// valid short names otherwise.
+// The strategy named `name`: its short name or its enum name, in any case ("rec",
+// "REC", "STRATEGY_REC"). INVALID_ARGUMENT listing the valid short names otherwise.
 absl::StatusOr<v1::Strategy> ParseStrategyName(absl::string_view name);
 
 // The engine's row of a wire strategy (UNSPECIFIED and unknown values: rec's,

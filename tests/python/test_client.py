@@ -103,6 +103,20 @@ def test_config_from_textproto_file_string_and_errors(client):
         excite.session_config("state_dim: oops")
     with pytest.raises(ValueError):
         excite.session_config({"no_such_field": 1})
+    # Strategy names in any case, short or enum, also auto's members; an unknown
+    # one lists the valid names (issue 31).
+    for name in ("REC", "Rec", "STRATEGY_REC", "strategy_rec"):
+        assert excite.session_config({"strategy": name}).strategy == (
+            excite.config_pb.STRATEGY_REC)
+    auto = excite.session_config({"strategy": "auto",
+                                  "auto": {"members": ["rec", "RANDOM"]}})
+    assert list(auto.auto.members) == [excite.config_pb.STRATEGY_REC,
+                                       excite.config_pb.STRATEGY_RANDOM]
+    with pytest.raises(ValueError, match="'foo' is not one of rec, pa, greedy"):
+        excite.session_config({"strategy": "foo"})
+    # A path that is not there is said to be missing, not parsed as textproto.
+    with pytest.raises(FileNotFoundError, match="not found: sim/configs/nope.textproto"):
+        excite.session_config("sim/configs/nope.textproto")
     with pytest.raises(grpc.RpcError) as error:  # the server validates values
         client.create_session(linear_config(state_dim=0))
     assert error.value.code() == grpc.StatusCode.INVALID_ARGUMENT
@@ -207,6 +221,7 @@ def test_plan_respects_bounds_and_strategy(client, strategy):
     np.testing.assert_allclose(plan.predicted_states[0], state)
     assert np.all(plan.predicted_variances > 0)
     assert plan.apply_count == (1 if strategy == "rec" else 4)
+    assert plan.planned_by == strategy
     assert plan.to_apply.shape == (plan.apply_count, 1)
     assert plan.solver_status.startswith("SOLVER_STATUS_")
     assert plan.solver_status != "SOLVER_STATUS_UNSPECIFIED"

@@ -187,9 +187,16 @@ TEST(SimConfigTest, StrategyNames) {
   EXPECT_EQ(*service::ParseStrategyName("chirp"), v1::STRATEGY_CHIRP);
   EXPECT_EQ(*service::ParseStrategyName("random"), v1::STRATEGY_RANDOM);
   EXPECT_EQ(*service::ParseStrategyName("sep"), v1::STRATEGY_SEP);
-  EXPECT_EQ(service::ParseStrategyName("SEP").status().code(),
-            absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(service::ParseStrategyName("p&a").status().code(),
+  // The enum name and any case too (issue 31: one vocabulary everywhere).
+  EXPECT_EQ(*service::ParseStrategyName("SEP"), v1::STRATEGY_SEP);
+  EXPECT_EQ(*service::ParseStrategyName("Rec"), v1::STRATEGY_REC);
+  EXPECT_EQ(*service::ParseStrategyName("STRATEGY_OPTIMISTIC"), v1::STRATEGY_OPTIMISTIC);
+  EXPECT_EQ(*service::ParseStrategyName("strategy_auto"), v1::STRATEGY_AUTO);
+  const absl::Status unknown = service::ParseStrategyName("p&a").status();
+  EXPECT_EQ(unknown.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(unknown.message().find("expected one of rec, pa, greedy"), std::string::npos)
+      << unknown;
+  EXPECT_EQ(service::ParseStrategyName("STRATEGY_UNSPECIFIED").status().code(),
             absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(service::ParseStrategyName("").status().code(),
             absl::StatusCode::kInvalidArgument);

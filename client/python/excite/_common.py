@@ -35,6 +35,7 @@ SESSION_HEADER = "x-excite-session"
 AUTH_TOKEN_ENV = "EXCITE_AUTH_TOKEN"
 
 _ENUM_PREFIX = {"strategy": "STRATEGY_", "target": "TARGET_"}
+_ENUM_TYPE: Dict[str, Any] = {"strategy": config_pb.Strategy, "target": config_pb.Target}
 _INTERVAL_FIELDS = ("input_bounds", "state_bounds")
 _SERVING_STATUS = {0: "UNKNOWN", 1: "SERVING", 2: "NOT_SERVING", 3: "SERVICE_UNKNOWN"}
 
@@ -67,6 +68,8 @@ class Plan:
     iterations: int
     wall_time_ms: float
     model_version: int
+    # The strategy that made the plan, short name: for "auto" the member it drew.
+    planned_by: str = ""
 
     @property
     def to_apply(self) -> FloatArray:
@@ -154,14 +157,36 @@ class SessionView:
         self.metadata = session_metadata(self.id)  # see SESSION_HEADER
 
 
+def _enum_name(key: str, value: Any) -> Any:
+    """"rec", "REC" or "STRATEGY_REC" -> "STRATEGY_REC"; ValueError listing the valid
+    names for an unknown one. Numbers and other types are left to json_format."""
+    if not isinstance(value, str):
+        return value
+    prefix = _ENUM_PREFIX[key]
+    name = value.upper()
+    if not name.startswith(prefix):
+        name = prefix + name
+    valid = [n for n in _ENUM_TYPE[key].keys() if not n.endswith("_UNSPECIFIED")]
+    if name not in valid:
+        short = ", ".join(n[len(prefix):].lower() for n in valid)
+        raise ValueError(f"bad session config: {key} {value!r} is not one of {short} "
+                         f"(or their {prefix}* names)")
+    return name
+
+
 def _friendly_dict(config: Mapping[str, Any]) -> dict:
-    """Accepts "rec" for STRATEGY_REC, "delta" for TARGET_DELTA and [lo, hi] pairs
-    for intervals, then leaves the rest to json_format."""
+    """Accepts "rec", "REC" or "STRATEGY_REC" for STRATEGY_REC (also in
+    auto.members), "delta" for TARGET_DELTA and [lo, hi] pairs for intervals, then
+    leaves the rest to json_format."""
     result = dict(config)
-    for key, prefix in _ENUM_PREFIX.items():
-        value = result.get(key)
-        if isinstance(value, str) and not value.upper().startswith(prefix):
-            result[key] = prefix + value.upper()
+    for key in _ENUM_PREFIX:
+        if key in result:
+            result[key] = _enum_name(key, result[key])
+    members = (result.get("auto") or {}).get("members") if isinstance(
+        result.get("auto"), Mapping) else None
+    if members is not None:
+        result["auto"] = dict(result["auto"], members=[
+            _enum_name("strategy", m) for m in members])
     for key in _INTERVAL_FIELDS:
         if key in result:
             result[key] = [
@@ -169,6 +194,13 @@ def _friendly_dict(config: Mapping[str, Any]) -> dict:
                 for b in result[key]
             ]
     return result
+
+
+def _looks_like_a_path(text: str) -> bool:
+    """One line with no textproto syntax in it that names a file: a .textproto
+    or .txt suffix, or a directory part."""
+    return ("\n" not in text and not any(c in text for c in ":{}")
+            and (text.endswith((".textproto", ".txt", ".pbtxt")) or "/" in text))
 
 
 def session_config(config: ConfigLike) -> config_pb.SessionConfig:
@@ -202,6 +234,8 @@ def session_config(config: ConfigLike) -> config_pb.SessionConfig:
     ):
         with open(config) as f:
             return session_config(f.read())
+    if isinstance(config, str) and _looks_like_a_path(config):
+        raise FileNotFoundError(f"session config file not found: {config}")
     if isinstance(config, str):
         errors = []
         for kind in (config_pb.SessionConfig, sim_pb.SimConfig):
@@ -358,6 +392,8 @@ def plan(reply: pb.PlanInputsResponse, state_dim: int, input_dim: int) -> Plan:
         iterations=int(reply.iterations),
         wall_time_ms=float(reply.wall_time_ms),
         model_version=int(reply.model_version),
+        planned_by=(config_pb.Strategy.Name(reply.planned_by)[len("STRATEGY_"):].lower()
+                    if reply.planned_by else ""),
     )
 
 
