@@ -253,6 +253,27 @@ def test_stream_sends_transitions_as_they_come(client):
     session.delete()
 
 
+def test_flush_waits_for_storage_and_plan_flushes_open_streams(client):
+    session = client.create_session(linear_config(horizon=3))
+    x, u, x_next, _, _ = linear_data(40, seed=6)
+    with session.stream(batch_size=100) as stream:  # nothing goes out by itself
+        for i in range(30):
+            stream.send(x[i], u[i], x_next[i])
+        assert stream.acknowledged == 0
+        stream.flush()
+        assert stream.acknowledged == 30 and stream.unacknowledged() == []
+        assert session.refresh().sample_count == 30
+        for i in range(30, 40):
+            stream.send(x[i], u[i], x_next[i])
+        plan = session.plan(x[39])  # flushes first: plans on all 40
+        assert stream.acknowledged == 40
+        assert session.refresh().sample_count == 40
+        assert plan.model_version >= session.model_version - 1
+    assert session not in [s.session for s in session._open_streams]
+    assert session._open_streams == []
+    session.delete()
+
+
 def test_stream_acknowledges_each_message_and_says_what_to_resend(client):
     session = client.create_session(linear_config())
     x, u, x_next, _, _ = linear_data(12, seed=7)

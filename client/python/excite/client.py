@@ -198,6 +198,8 @@ class Session(_common.SessionView):
 
     def __init__(self, client: Client, info: pb.Session) -> None:
         self.client = client
+        # This object's streams that are open: plan() flushes them first.
+        self._open_streams: List[TransitionStream] = []
         self._set(info)
 
     def __repr__(self) -> str:
@@ -253,7 +255,11 @@ class Session(_common.SessionView):
         the stream closes). The server stores each message, then acknowledges it:
         `acknowledged` counts the transitions known to be stored, and after a broken
         stream `unacknowledged()` lists those to resend (with the same sequence
-        numbers, so nothing is stored twice)."""
+        numbers, so nothing is stored twice).
+
+        `send()` returns before the transition is stored. Call `flush()` before
+        anything that must see it (a Predict, another client's plan); this
+        session's own `plan()` flushes its open streams first."""
         return TransitionStream(self, batch_size, timeout_s)
 
     def predict(self, z: Optional[npt.ArrayLike] = None, *,
@@ -270,8 +276,11 @@ class Session(_common.SessionView):
         return _common.prediction(reply, n, self.state_dim)
 
     def plan(self, state: npt.ArrayLike) -> Plan:
-        """The inputs to apply from the measured `state` (state_dim numbers)."""
+        """The inputs to apply from the measured `state` (state_dim numbers). Flushes
+        this session's open streams first, so the plan sees what they sent."""
         request = _common.plan_request(self.name, self.state_dim, state)
+        for stream in list(self._open_streams):
+            stream.flush()
         reply = self.client.stub.PlanInputs(request, timeout=self.client.plan_timeout_s,
                                             metadata=self.metadata)
         return _common.plan(reply, self.state_dim, self.input_dim)
@@ -300,6 +309,7 @@ class TransitionStream:
         self._sent: collections.deque[List[pb.Transition]] = collections.deque()
         self._queue: queue.Queue[Any] = queue.Queue()
         self._lock = threading.Lock()
+        self._acked = threading.Condition(self._lock)  # an ack arrived, or the end
         self._stored = 0
         self._duplicates = 0
         self._first: Optional[int] = None
@@ -308,6 +318,7 @@ class TransitionStream:
         self._error: Optional[BaseException] = None
         self._call: Any = None
         self._reader: Optional[threading.Thread] = None
+        self._reading = False
 
     def _requests(self) -> Iterator[pb.AddDataRequest]:
         first = True
@@ -333,15 +344,44 @@ class TransitionStream:
                         low, high = min(sequences), max(sequences)
                         self._first = low if self._first is None else min(self._first, low)
                         self._last = high if self._last is None else max(self._last, high)
+                    self._acked.notify_all()
         except grpc.RpcError as error:
             self._error = converted(error)
+        finally:
+            with self._lock:
+                self._reading = False
+                self._acked.notify_all()
 
     def __enter__(self) -> TransitionStream:
         self._call = self.session.client.stub.StreamData(
             self._requests(), timeout=self.timeout_s, metadata=self.session.metadata)
+        self._reading = True
         self._reader = threading.Thread(target=self._read_acks, daemon=True)
         self._reader.start()
+        self.session._open_streams.append(self)
         return self
+
+    def _forget(self) -> None:
+        if self in self.session._open_streams:
+            self.session._open_streams.remove(self)
+
+    def flush(self, timeout_s: Optional[float] = None) -> None:
+        """Sends what is pending and waits until the server has acknowledged (stored)
+        every transition sent so far. Raises the stream's error, RuntimeError if the
+        server ended the stream before acknowledging them, TimeoutError after
+        `timeout_s` seconds (None: the stream's own deadline bounds the wait)."""
+        with self._acked:
+            self._flush()
+            if not self._acked.wait_for(lambda: not self._sent or not self._reading,
+                                        timeout=timeout_s):
+                raise TimeoutError(f"{len(self._sent)} messages still unacknowledged after "
+                                   f"{timeout_s} s")
+        if self._error is not None:
+            raise self._error
+        if self._sent:
+            raise RuntimeError(
+                f"the server ended the stream with {len(self.unacknowledged())} "
+                "transitions unacknowledged (not stored): resend stream.unacknowledged()")
 
     def _flush(self) -> None:  # with self._lock held
         if self._pending:
@@ -377,6 +417,7 @@ class TransitionStream:
         self._queue.put(self._END)
         if self._reader is not None:
             self._reader.join()
+        self._forget()
         if self._error is not None:
             raise self._error
         if self._sent:  # ended cleanly early: e.g. at a message it could not parse
@@ -397,6 +438,7 @@ class TransitionStream:
         if exc_type is None:
             self.close()
         else:
+            self._forget()
             self._call.cancel()
             self._queue.put(self._END)  # unblocks the request iterator
 
