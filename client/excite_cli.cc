@@ -5,11 +5,13 @@
 //   excite sessions create --config FILE [--id ID] [--display_name TEXT]
 //                          [--labels KEY=VALUE,...]
 //   excite sessions delete NAME
-//   excite predict --session NAME --z 'x1,..,u1,..[,x1,..]' [--include_noise]
-//   excite plan --session NAME --state 'x1,x2,..'
+//   excite predict NAME --z 'x1,..,u1,..[,x1,..]' [--include_noise]
+//   excite plan NAME --state 'x1,x2,..'
 //   excite add NAME [FILE]
 //   excite export NAME FILE
-//   excite import FILE [--session_id ID]
+//   excite import FILE [--id ID]
+// The session is the first argument after the command everywhere (--session NAME
+// is kept for predict and plan; --session_id for import's --id).
 //
 // add streams transitions from a CSV file (or stdin) into a session, in the layout
 // of client/transition_csv.h (the one excite-sim --trajectory writes): one row per
@@ -19,8 +21,7 @@
 // is stored is not stored again, and a rerun is safe). Any row that is not such
 // numbers is an error naming its line; nothing is sent then. export writes the session
 // (config, samples, last hyperparameters) to FILE as a binary SessionArchive; import
-// creates a session from such a file (under its exported id unless --session_id is
-// given).
+// creates a session from such a file (under its exported id unless --id is given).
 // --output=json prints each result as one JSON document (protobuf's JSON mapping).
 //
 // NAME is "sessions/{id}" or just the id. Exit status: 0 on success, 1 when the
@@ -39,6 +40,7 @@
 
 #include "absl/flags/flag.h"
 #include "absl/status/status.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/escaping.h"
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
@@ -58,8 +60,11 @@
 
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "excite-server address HOST:PORT.");
 ABSL_FLAG(std::string, config, "", "sessions create: SessionConfig textproto file.");
-ABSL_FLAG(std::string, id, "", "sessions create: session id (generated if empty).");
-ABSL_FLAG(std::string, session, "", "predict/plan: session NAME.");
+ABSL_FLAG(std::string, id, "",
+          "sessions create: session id (generated if empty); import: id of the new "
+          "session (default: the exported session's id).");
+ABSL_FLAG(std::string, session, "",
+          "predict/plan: session NAME (the same as giving it after the command).");
 ABSL_FLAG(std::string, z, "", "predict: comma-separated z = (x, u) points, row-major.");
 ABSL_FLAG(bool, include_noise, false, "predict: add the noise variance.");
 ABSL_FLAG(std::string, state, "", "plan: comma-separated current state.");
@@ -71,8 +76,7 @@ ABSL_FLAG(std::string, display_name, "", "sessions create: what a person calls i
 ABSL_FLAG(
     std::vector<std::string>, labels, {},
     "sessions create: comma-separated KEY=VALUE labels, e.g. plant=pendulum,lab=b12.");
-ABSL_FLAG(std::string, session_id, "",
-          "import: id of the new session (default: the exported session's id).");
+ABSL_FLAG(std::string, session_id, "", "import: the same as --id (kept for scripts).");
 ABSL_FLAG(std::string, header, "auto",
           "add: whether the CSV's first row is a header: yes, no, or auto (it is if "
           "every field is a name, not a number).");
@@ -84,19 +88,22 @@ ABSL_FLAG(std::string, output, "text", "text (for people) or json (one JSON docu
 namespace {
 
 constexpr char kUsage[] =
-    "excite [--server=HOST:PORT] COMMAND\n"
-    "  sessions list\n"
+    "excite [--server=HOST:PORT] [--output=text|json] [--timeout_s=S] COMMAND\n"
+    "  sessions list [--filter='labels.KEY = \"VALUE\" AND ...'] [--page_size=N]\n"
     "  sessions get NAME\n"
-    "  sessions create --config FILE [--id ID]\n"
+    "  sessions create --config=FILE [--id=ID] [--display_name=TEXT]\n"
+    "                  [--labels=KEY=VALUE,...]\n"
     "  sessions delete NAME\n"
-    "  predict --session NAME --z 'v1,v2,...' [--include_noise]\n"
-    "  plan --session NAME --state 'x1,x2,...'\n"
+    "  predict NAME --z='x1,..,u1,..[,x1,..]' [--include_noise]\n"
+    "  plan NAME --state='x1,x2,...'\n"
     "  add NAME [FILE] [--header=auto|yes|no]\n"
     "                    (CSV x0..,u0..,x0_next..[,sequence], as excite-sim\n"
     "                    --trajectory writes it; stdin without FILE)\n"
     "  export NAME FILE\n"
-    "  import FILE [--session_id ID]\n"
-    "NAME is sessions/{id} or {id}. --output=json prints JSON.";
+    "  import FILE [--id=ID]\n"
+    "NAME is sessions/{id} or {id}. Connection: --tls_ca, --tls_cert, --tls_key,\n"
+    "--auth_token_file; --max_message_mb for big exports. --help lists every flag,\n"
+    "--version the version and commit.";
 
 int UsageError(const std::string& message) {
   std::fprintf(stderr, "excite: %s\nusage:\n%s\n", message.c_str(), kUsage);
@@ -272,10 +279,35 @@ int Sessions(excite::client::ExciteClient& client, const std::vector<std::string
   return UsageError(absl::StrCat("sessions: unknown sub-command \"", verb, "\""));
 }
 
-int Predict(excite::client::ExciteClient& client) {
-  if (absl::GetFlag(FLAGS_session).empty()) return UsageError("predict: --session");
+// The session NAME of predict and plan: the argument after the command, or
+// --session (the older spelling); empty after a usage error was printed.
+std::string SessionArgument(const std::vector<std::string>& args, int* exit_code) {
+  const std::string& command = args[0];
+  const std::string flag = absl::GetFlag(FLAGS_session);
+  if (args.size() > 2) {
+    *exit_code = UsageError(absl::StrCat(command, " takes one session NAME, got ",
+                                         args.size() - 1, " arguments"));
+    return "";
+  }
+  const std::string positional = args.size() == 2 ? args[1] : "";
+  if (!positional.empty() && !flag.empty() && FullName(positional) != FullName(flag)) {
+    *exit_code = UsageError(absl::StrCat(command, ": the session is given twice (\"",
+                                         positional, "\" and --session=", flag, ")"));
+    return "";
+  }
+  if (positional.empty() && flag.empty()) {
+    *exit_code = UsageError(absl::StrCat(command, ": which session? ", command, " NAME"));
+    return "";
+  }
+  return FullName(positional.empty() ? flag : positional);
+}
+
+int Predict(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
+  int exit_code = 0;
+  const std::string name = SessionArgument(args, &exit_code);
+  if (name.empty()) return exit_code;
   excite::v1::PredictRequest request;
-  request.set_session(FullName(absl::GetFlag(FLAGS_session)));
+  request.set_session(name);
   std::vector<double> z;
   if (!ParseNumbers(absl::GetFlag(FLAGS_z), &z)) {
     return UsageError("predict: --z must be comma-separated numbers");
@@ -300,14 +332,15 @@ int Predict(excite::client::ExciteClient& client) {
   return 0;
 }
 
-int Plan(excite::client::ExciteClient& client) {
-  if (absl::GetFlag(FLAGS_session).empty()) return UsageError("plan: --session");
+int Plan(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
+  int exit_code = 0;
+  const std::string name = SessionArgument(args, &exit_code);
+  if (name.empty()) return exit_code;
   std::vector<double> state;
   if (!ParseNumbers(absl::GetFlag(FLAGS_state), &state)) {
     return UsageError("plan: --state must be comma-separated numbers");
   }
-  absl::StatusOr<excite::v1::PlanInputsResponse> plan =
-      client.PlanInputs(FullName(absl::GetFlag(FLAGS_session)), state);
+  absl::StatusOr<excite::v1::PlanInputsResponse> plan = client.PlanInputs(name, state);
   if (!plan.ok()) return Fail(plan.status());
   if (Json()) {
     PrintJson(*plan);
@@ -352,12 +385,17 @@ int Export(excite::client::ExciteClient& client, const std::vector<std::string>&
 }
 
 int Import(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
-  if (args.size() != 2) return UsageError("import FILE [--session_id ID]");
+  if (args.size() != 2) return UsageError("import FILE [--id=ID]");
+  const std::string id = absl::GetFlag(FLAGS_id);
+  const std::string old_id = absl::GetFlag(FLAGS_session_id);
+  if (!id.empty() && !old_id.empty() && id != old_id) {
+    return UsageError("import: --id and --session_id (the same flag) differ");
+  }
   absl::StatusOr<excite::v1::SessionArchive> archive =
       excite::client::ReadSessionArchiveFile(args[1]);
   if (!archive.ok()) return LocalFail(archive.status());
   absl::StatusOr<excite::v1::Session> session =
-      client.ImportSession(*archive, absl::GetFlag(FLAGS_session_id));
+      client.ImportSession(*archive, id.empty() ? old_id : id);
   if (!session.ok()) return Fail(session.status());
   if (Json()) return PrintSession(*session);
   std::printf("imported %s (%lld samples) from %s\n", session->name().c_str(),
@@ -430,6 +468,42 @@ int Add(excite::client::ExciteClient& client, const std::vector<std::string>& ar
 
 }  // namespace
 
+namespace {
+
+// Edit distance (insertions, deletions, substitutions), for "did you mean".
+size_t EditDistance(absl::string_view a, absl::string_view b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string UnknownCommand(const std::string& command) {
+  std::string message = absl::StrCat("unknown command \"", command, "\"");
+  const std::string lower = absl::AsciiStrToLower(command);
+  std::string best;
+  size_t best_distance = 3;  // suggest only within 2 edits
+  for (const char* known : {"sessions", "predict", "plan", "add", "export", "import"}) {
+    const size_t d = EditDistance(lower, known);
+    if (d < best_distance || absl::StartsWith(known, lower)) {
+      best_distance = std::min(d, best_distance);
+      best = known;
+    }
+  }
+  if (!best.empty()) absl::StrAppend(&message, " (did you mean ", best, "?)");
+  return message;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   std::vector<char*> positional = excite::ParseFlags(argc, argv, kUsage);
   std::vector<std::string> args(positional.begin() + 1, positional.end());
@@ -460,8 +534,7 @@ int main(int argc, char** argv) {
   if (command == "export") return Export(*client, args);
   if (command == "import") return Import(*client, args);
   if (command == "add") return Add(*client, args);
-  if (args.size() != 1) return UsageError(absl::StrCat(command, " takes no argument"));
-  if (command == "predict") return Predict(*client);
-  if (command == "plan") return Plan(*client);
-  return UsageError(absl::StrCat("unknown command \"", command, "\""));
+  if (command == "predict") return Predict(*client, args);
+  if (command == "plan") return Plan(*client, args);
+  return UsageError(UnknownCommand(command));
 }

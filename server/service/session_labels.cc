@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
@@ -90,6 +91,11 @@ absl::StatusOr<LabelFilter> LabelFilter::Parse(absl::string_view filter) {
   if (absl::StripAsciiWhitespace(filter).empty()) return parsed;
   for (absl::string_view part : absl::StrSplit(filter, " AND ")) {
     const absl::string_view condition = absl::StripAsciiWhitespace(part);
+    const std::string lower = absl::AsciiStrToLower(condition);
+    if (absl::StrContains(lower, " and ") || absl::StrContains(lower, " or ")) {
+      return FilterError(condition,
+                         "join conditions with AND in capitals (OR is not supported)");
+    }
     absl::string_view rest = condition;
     if (!absl::ConsumePrefix(&rest, "labels.")) {
       return FilterError(condition, "only labels can be filtered on");

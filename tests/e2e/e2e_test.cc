@@ -263,7 +263,7 @@ TEST_F(EndToEndTest, CliExportsAndImportsASession) {
   EXPECT_NE(out.find("imported sessions/cli-src (12 samples)"), std::string::npos) << out;
   EXPECT_EQ(RunCli({"import", file}, &out, &err), 1);
   EXPECT_NE(err.find("ALREADY_EXISTS"), std::string::npos) << err;
-  ASSERT_EQ(RunCli({"import", file, "--session_id=cli-copy"}, &out, &err), 0) << err;
+  ASSERT_EQ(RunCli({"import", file, "--id=cli-copy"}, &out, &err), 0) << err;
   ASSERT_EQ(RunCli({"sessions", "get", "cli-copy"}, &out, &err), 0) << err;
   EXPECT_NE(out.find("sample_count: 12"), std::string::npos) << out;
   EXPECT_NE(out.find("last_sequence: 11"), std::string::npos) << out;
@@ -315,16 +315,28 @@ TEST_F(EndToEndTest, CliDoesAFirstWorkflowAlone) {
       << err;
   EXPECT_NE(out.find("\"stored\":\"0\",\"duplicates\":\"40\""), std::string::npos) << out;
 
-  ASSERT_EQ(RunCli({"--output=json", "predict", "--session=first", "--z=0.1,0.2,0.3"},
-                   &out, &err),
+  ASSERT_EQ(RunCli({"--output=json", "predict", "first", "--z=0.1,0.2,0.3"}, &out, &err),
             0)
       << err;
   EXPECT_EQ(out.rfind("{\"mean\":[", 0), 0u) << out;
   ASSERT_EQ(RunCli({"--output=json", "sessions", "list"}, &out, &err), 0) << err;
   EXPECT_NE(out.find("\"name\":\"sessions/first\""), std::string::npos) << out;
   EXPECT_NE(out.find("\"sample_count\":\"40\""), std::string::npos) << out;
-  ASSERT_EQ(RunCli({"plan", "--session=first", "--state=0,0"}, &out, &err), 0) << err;
+  ASSERT_EQ(RunCli({"plan", "first", "--state=0,0"}, &out, &err), 0) << err;
   EXPECT_NE(out.find("horizon"), std::string::npos) << out;
+  // --session is still understood; twice and different is a usage error.
+  ASSERT_EQ(RunCli({"plan", "--session=first", "--state=0,0"}, &out, &err), 0) << err;
+  EXPECT_EQ(RunCli({"plan", "first", "--session=other", "--state=0,0"}, &out, &err), 2);
+  EXPECT_NE(err.find("the session is given twice"), std::string::npos) << err;
+  // A typo gets a suggestion; the version says what was built.
+  EXPECT_EQ(RunCli({"pridict", "first"}, &out, &err), 2);
+  EXPECT_NE(err.find("unknown command \"pridict\" (did you mean predict?)"),
+            std::string::npos)
+      << err;
+  ASSERT_EQ(RunCli({"--version"}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("excite 0."), std::string::npos) << out;
+  EXPECT_NE(out.find("(commit "), std::string::npos) << out;
+  EXPECT_EQ(out.find("Debug build"), std::string::npos) << out;
 
   // Sessions a person can tell apart: a display name and labels, and a filter.
   ASSERT_EQ(

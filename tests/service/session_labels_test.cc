@@ -62,6 +62,15 @@ TEST(LabelFilterTest, ErrorsSayWhatIsWrongAndWhatIsAllowed) {
     EXPECT_THAT(parsed.status().message(), HasSubstr("want conditions joined by AND"))
         << bad;
   }
+  // A lowercase and is said to be one (it used to be read as part of a value).
+  for (const char* joined :
+       {"labels.plant = a and labels.run:*", "labels.plant = a or labels.run:*"}) {
+    absl::StatusOr<LabelFilter> parsed = LabelFilter::Parse(joined);
+    ASSERT_FALSE(parsed.ok()) << joined;
+    EXPECT_THAT(parsed.status().message(),
+                HasSubstr("join conditions with AND in capitals"))
+        << joined;
+  }
 }
 
 v1::CreateSessionRequest Labelled(const std::string& id, const std::string& plant) {
