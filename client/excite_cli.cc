@@ -22,7 +22,8 @@
 // numbers is an error naming its line; nothing is sent then. export writes the session
 // (config, samples, last hyperparameters) to FILE as a binary SessionArchive; import
 // creates a session from such a file (under its exported id unless --id is given).
-// --output=json prints each result as one JSON document (protobuf's JSON mapping).
+// --output=json prints each result as one JSON document (protobuf's JSON mapping,
+// so 64-bit counts are strings: "sample_count":"40"; export's count too).
 //
 // NAME is "sessions/{id}" or just the id. Exit status: 0 on success, 1 when the
 // server returns an error (printed with its gRPC code name) or cannot be reached,
@@ -375,8 +376,10 @@ int Export(excite::client::ExciteClient& client, const std::vector<std::string>&
     return LocalFail(s);
   }
   if (Json()) {
-    std::printf("{\"exported\":\"%s\",\"samples\":%d,\"file\":\"%s\"}\n", name.c_str(),
-                archive->samples_size(), absl::CEscape(args[2]).c_str());
+    // Counts as strings, as protobuf's JSON mapping writes the int64 counts of
+    // every other command ("stored", "sample_count"): one type per kind of field.
+    std::printf("{\"exported\":\"%s\",\"samples\":\"%d\",\"file\":\"%s\"}\n",
+                name.c_str(), archive->samples_size(), absl::CEscape(args[2]).c_str());
     return 0;
   }
   std::printf("exported %s (%d samples, %d hyperparameter sets) to %s\n", name.c_str(),

@@ -256,6 +256,9 @@ TEST_F(EndToEndTest, CliExportsAndImportsASession) {
   const std::string file = work_.path() + "/cli-src.excite";
   ASSERT_EQ(RunCli({"export", "cli-src", file}, &out, &err), 0) << err;
   EXPECT_NE(out.find("exported sessions/cli-src (12 samples"), std::string::npos) << out;
+  // JSON: counts are strings, as in every other command's output.
+  ASSERT_EQ(RunCli({"--output=json", "export", "cli-src", file}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("\"samples\":\"12\""), std::string::npos) << out;
   ASSERT_GT(std::filesystem::file_size(file), 0u);
   ASSERT_EQ(RunCli({"sessions", "delete", "cli-src"}, &out, &err), 0) << err;
 
