@@ -3,8 +3,10 @@
 import os
 import pathlib
 import re
+import socket
 import subprocess
 import sys
+import threading
 import time
 
 import grpc
@@ -70,15 +72,19 @@ def test_session_lifecycle(client):
     assert {"sessions/py-life", "sessions/py-life-2"} <= set(names)
     assert len(names) == len(set(names))
 
-    with pytest.raises(grpc.RpcError) as error:
+    with pytest.raises(excite.AlreadyExists) as error:  # typed, still an RpcError
         client.create_session(linear_config(), session_id="py-life")
     assert error.value.code() == grpc.StatusCode.ALREADY_EXISTS
+    assert isinstance(error.value, grpc.RpcError)
+    assert isinstance(error.value, excite.ExciteError)
+    assert str(error.value).startswith("ALREADY_EXISTS: ")
 
     created.delete()
     client.delete_session("sessions/py-life-2")
-    with pytest.raises(grpc.RpcError) as error:
+    with pytest.raises(excite.NotFound) as error:
         client.session("py-life")
     assert error.value.code() == grpc.StatusCode.NOT_FOUND
+    assert "py-life" in str(error.value)
 
 
 def test_config_from_textproto_file_string_and_errors(client):
@@ -539,3 +545,37 @@ def test_mutual_tls_and_token(tmp_path, monkeypatch):
                           tls_client_cert=files["client.pem"])
     finally:
         assert server.stop() == 0
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_unavailable_is_retried_within_the_window(tmp_path):
+    port = free_port()
+    address = f"127.0.0.1:{port}"
+    # Nothing there and no retry: Unavailable at once.
+    with excite.Client(address, timeout_s=5) as c:
+        start = time.monotonic()
+        with pytest.raises(excite.Unavailable):
+            list(c.list_sessions())
+        assert time.monotonic() - start < 2.5
+    # A server that comes up a second later: the call succeeds within the window.
+    late = ServerProcess(tmp_path, extra_args=[f"--listen={address}"])
+    timer = threading.Timer(1.0, late.start)
+    timer.start()
+    try:
+        with excite.Client(address, timeout_s=5, retry_unavailable_s=30) as c:
+            assert list(c.list_sessions()) == []
+    finally:
+        timer.join()
+        assert late.stop() == 0
+
+
+def test_plan_says_what_shape_a_state_has(client):
+    session = client.create_session(linear_config())
+    with pytest.raises(ValueError, match=r"one state of 2 numbers .* got shape \(3,\)"):
+        session.plan(np.zeros(3))
+    session.delete()

@@ -19,14 +19,34 @@ generates anything. See client/python/README.md.
 from excite._common import AddResult, Plan, Prediction, Samples, session_config
 from excite._pb import config_pb, pb
 from excite.client import SESSION_HEADER, Client, Session, TransitionStream
-from excite.errors import InvalidArgument, field_violations
+from excite.errors import (Aborted, AlreadyExists, Cancelled, DataLoss, DeadlineExceeded,
+                           ExciteError, FailedPrecondition, Internal, InvalidArgument,
+                           NotFound, OutOfRange, PermissionDenied, ResourceExhausted,
+                           Unauthenticated, Unavailable, Unimplemented, Unknown,
+                           field_violations)
 
 __version__ = "0.1.0"
 
 __all__ = [
     "AddResult",
     "Client",
+    "ExciteError",
+    "Aborted",
+    "AlreadyExists",
+    "Cancelled",
+    "DataLoss",
+    "DeadlineExceeded",
+    "FailedPrecondition",
+    "Internal",
     "InvalidArgument",
+    "NotFound",
+    "OutOfRange",
+    "PermissionDenied",
+    "ResourceExhausted",
+    "Unauthenticated",
+    "Unavailable",
+    "Unimplemented",
+    "Unknown",
     "field_violations",
     "Plan",
     "Prediction",

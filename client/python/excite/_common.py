@@ -371,10 +371,13 @@ def prediction(reply: pb.PredictResponse, n: int, state_dim: int) -> Prediction:
 
 
 def plan_request(name: str, state_dim: int, state: npt.ArrayLike) -> pb.PlanInputsRequest:
-    x = rows(state, state_dim, "state")
-    if len(x) != 1:
-        raise ValueError("plan takes one state")
-    return pb.PlanInputsRequest(session=name, state=x[0])
+    x = np.asarray(state, dtype=np.float64)
+    if x.ndim == 2 and x.shape[0] == 1:
+        x = x[0]
+    if x.ndim != 1 or x.size != state_dim:
+        raise ValueError(f"plan takes one state of {state_dim} numbers (the session's "
+                         f"state_dim), got shape {x.shape}")
+    return pb.PlanInputsRequest(session=name, state=x)
 
 
 def plan(reply: pb.PlanInputsResponse, state_dim: int, input_dim: int) -> Plan:

@@ -79,7 +79,9 @@ class Client:
                  tls_ca: Optional[PathLike] = None,
                  tls_client_cert: Optional[PathLike] = None,
                  tls_client_key: Optional[PathLike] = None,
-                 auth_token: Optional[str] = None) -> None:
+                 auth_token: Optional[str] = None,
+                 retry_unavailable_s: float = 0.0) -> None:
+        """As excite.Client's."""
         self.target = target
         options = _common.channel_options(max_message_mb)
         credentials = _common.channel_credentials(tls_ca, tls_client_cert, tls_client_key)
@@ -91,7 +93,7 @@ class Client:
             grpc.aio.secure_channel(target, credentials, options=options,
                                     interceptors=interceptors))
         self.stub: Any = pb_grpc.ExplorationServiceStub(self.channel)
-        self._calls: Any = AioCheckedStub(self.stub)
+        self._calls: Any = AioCheckedStub(self.stub, retry_unavailable_s)
         self.timeout_s = timeout_s
         self.plan_timeout_s = plan_timeout_s
         self._health_check = self.channel.unary_unary(_common.HEALTH_CHECK_METHOD)

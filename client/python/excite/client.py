@@ -75,9 +75,16 @@ class Client:
                  tls_ca: Optional[PathLike] = None,
                  tls_client_cert: Optional[PathLike] = None,
                  tls_client_key: Optional[PathLike] = None,
-                 auth_token: Optional[str] = None) -> None:
+                 auth_token: Optional[str] = None,
+                 retry_unavailable_s: float = 0.0) -> None:
         """`target` is "host:port". Every call gets `timeout_s` as its deadline,
         PlanInputs `plan_timeout_s` (solves can take a while).
+
+        `retry_unavailable_s` > 0 resends a call that failed UNAVAILABLE (a server
+        restarting, a replica failing over) for that many seconds, as the C++
+        client does: reads and PlanInputs also after a lost answer, AddData also
+        after a deadline (its sequence numbers make a resent batch a duplicate).
+        Errors are ``excite.ExciteError`` subclasses, one per status.
 
         Security, as the C++ clients' flags: `tls_ca` (path of the PEM CA bundle that
         signed the server's certificate) turns TLS on; `tls_client_cert` and
@@ -93,7 +100,8 @@ class Client:
         self._raw_channel = channel
         self.channel: grpc.Channel = (
             grpc.intercept_channel(channel, _BearerToken(token)) if token else channel)
-        self.stub: Any = CheckedStub(pb_grpc.ExplorationServiceStub(self.channel))
+        self.stub: Any = CheckedStub(pb_grpc.ExplorationServiceStub(self.channel),
+                                     retry_unavailable_s)
         self.timeout_s = timeout_s
         self.plan_timeout_s = plan_timeout_s
         # grpc.health.v1.Health/Check with raw bytes (no health stubs needed).

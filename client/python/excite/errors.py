@@ -1,10 +1,13 @@
-"""The exception the client raises for INVALID_ARGUMENT, with the server's field
-violations (google.rpc.BadRequest in the grpc-status-details-bin trailer), and
-the stub wrappers that raise it (blocking and asyncio)."""
+"""The exceptions the client raises, one per gRPC status (InvalidArgument with
+the server's field violations, google.rpc.BadRequest in the
+grpc-status-details-bin trailer), and the stub wrappers that raise them and
+resend after UNAVAILABLE (blocking and asyncio)."""
 
 from __future__ import annotations
 
-from typing import Any, List, Tuple
+import asyncio
+import time
+from typing import Any, List, Optional, Tuple
 
 import grpc
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
@@ -58,16 +61,15 @@ def field_violations(error: Any) -> List[Tuple[str, str]]:
     return []
 
 
-class InvalidArgument(grpc.RpcError):
-    """INVALID_ARGUMENT from the server: `violations` lists (field, description)
-    for each problem of the request (e.g. ("config.noise.variance", "must be in
-    [1e-30, 1e+30], got -1")). code(), details() and trailing_metadata() are the
-    original error's."""
+class ExciteError(grpc.RpcError):
+    """An error of the server (or of reaching it), as a typed exception: one
+    subclass per gRPC status (NotFound, FailedPrecondition, Unavailable, ...), each
+    still a ``grpc.RpcError`` whose code(), details() and trailing_metadata() are
+    the original error's. str() is "CODE: message"."""
 
     def __init__(self, error: Any) -> None:
         super().__init__()
         self.error = error
-        self.violations: List[Tuple[str, str]] = field_violations(error)
 
     def code(self) -> grpc.StatusCode:
         return self.error.code()
@@ -79,39 +81,178 @@ class InvalidArgument(grpc.RpcError):
         return self.error.trailing_metadata()
 
     def __str__(self) -> str:
+        return f"{self.code().name}: {self.details()}"
+
+
+class InvalidArgument(ExciteError):
+    """INVALID_ARGUMENT from the server: `violations` lists (field, description)
+    for each problem of the request (e.g. ("config.noise.variance", "must be in
+    [1e-30, 1e+30], got -1"))."""
+
+    def __init__(self, error: Any) -> None:
+        super().__init__(error)
+        self.violations: List[Tuple[str, str]] = field_violations(error)
+
+    def __str__(self) -> str:
         lines = [f"INVALID_ARGUMENT: {self.details()}"]
         lines += [f"  {field}: {description}" for field, description in self.violations]
         return "\n".join(lines)
 
 
+class Cancelled(ExciteError):
+    """CANCELLED: the call was cancelled (by this client)."""
+
+
+class Unknown(ExciteError):
+    """UNKNOWN: e.g. the stream to a replica that died was dropped mid-call."""
+
+
+class DeadlineExceeded(ExciteError):
+    """DEADLINE_EXCEEDED: no answer in time (timeout_s / plan_timeout_s)."""
+
+
+class NotFound(ExciteError):
+    """NOT_FOUND: no such session."""
+
+
+class AlreadyExists(ExciteError):
+    """ALREADY_EXISTS: a session with that id exists."""
+
+
+class PermissionDenied(ExciteError):
+    """PERMISSION_DENIED."""
+
+
+class ResourceExhausted(ExciteError):
+    """RESOURCE_EXHAUSTED: a cap (samples per session, memory budget, sessions)."""
+
+
+class FailedPrecondition(ExciteError):
+    """FAILED_PRECONDITION: e.g. too few samples to predict or plan yet."""
+
+
+class Aborted(ExciteError):
+    """ABORTED: e.g. the session moved to another replica; retry."""
+
+
+class OutOfRange(ExciteError):
+    """OUT_OF_RANGE."""
+
+
+class Unimplemented(ExciteError):
+    """UNIMPLEMENTED."""
+
+
+class Internal(ExciteError):
+    """INTERNAL: a fault of the server (report it)."""
+
+
+class Unavailable(ExciteError):
+    """UNAVAILABLE: the server cannot be reached (or is shutting down)."""
+
+
+class DataLoss(ExciteError):
+    """DATA_LOSS: stored data of the session cannot be read."""
+
+
+class Unauthenticated(ExciteError):
+    """UNAUTHENTICATED: no or a wrong auth token."""
+
+
+_BY_CODE = {
+    grpc.StatusCode.CANCELLED: Cancelled,
+    grpc.StatusCode.UNKNOWN: Unknown,
+    grpc.StatusCode.INVALID_ARGUMENT: InvalidArgument,
+    grpc.StatusCode.DEADLINE_EXCEEDED: DeadlineExceeded,
+    grpc.StatusCode.NOT_FOUND: NotFound,
+    grpc.StatusCode.ALREADY_EXISTS: AlreadyExists,
+    grpc.StatusCode.PERMISSION_DENIED: PermissionDenied,
+    grpc.StatusCode.RESOURCE_EXHAUSTED: ResourceExhausted,
+    grpc.StatusCode.FAILED_PRECONDITION: FailedPrecondition,
+    grpc.StatusCode.ABORTED: Aborted,
+    grpc.StatusCode.OUT_OF_RANGE: OutOfRange,
+    grpc.StatusCode.UNIMPLEMENTED: Unimplemented,
+    grpc.StatusCode.INTERNAL: Internal,
+    grpc.StatusCode.UNAVAILABLE: Unavailable,
+    grpc.StatusCode.DATA_LOSS: DataLoss,
+    grpc.StatusCode.UNAUTHENTICATED: Unauthenticated,
+}
+
+
 def converted(error: BaseException) -> BaseException:
-    """`error`, as InvalidArgument if that is its code."""
-    if isinstance(error, grpc.RpcError) and not isinstance(error, InvalidArgument) and \
-            error.code() == grpc.StatusCode.INVALID_ARGUMENT:
-        return InvalidArgument(error)
+    """`error` as the ExciteError subclass of its status code (unchanged if it is
+    one already or not an RpcError)."""
+    if isinstance(error, grpc.RpcError) and not isinstance(error, ExciteError):
+        kind = _BY_CODE.get(error.code())
+        if kind is not None:
+            return kind(error)
     return error
+
+
+# When a call may be sent again, as the C++ client's Resend: reads and PlanInputs
+# also after a lost answer (UNKNOWN "Stream removed": a replica died mid-call),
+# AddData also after a deadline (sequence numbers make a resent batch a
+# duplicate); calls that could do their work twice only after UNAVAILABLE.
+_AFTER_LOST_ANSWER = {"GetSession", "ListSessions", "Predict", "ExportSession",
+                      "PlanInputs"}
+_AFTER_DEADLINE_TOO = {"AddData"}
+
+
+def _may_resend(method: str, error: Any) -> bool:
+    code = error.code() if isinstance(error, grpc.RpcError) else None
+    if code == grpc.StatusCode.UNAVAILABLE:
+        return True
+    lost = code == grpc.StatusCode.UNKNOWN and "Stream removed" in (error.details() or "")
+    if lost and (method in _AFTER_LOST_ANSWER or method in _AFTER_DEADLINE_TOO):
+        return True
+    return code == grpc.StatusCode.DEADLINE_EXCEEDED and method in _AFTER_DEADLINE_TOO
+
+
+class _Backoff:
+    """0.1 s doubling to 2 s, within `window_s` from the first try."""
+
+    def __init__(self, window_s: float) -> None:
+        self.end = time.monotonic() + window_s
+        self.delay = 0.1
+
+    def next_delay(self) -> Optional[float]:
+        left = self.end - time.monotonic()
+        if left <= 0:
+            return None
+        delay = min(self.delay, left)
+        self.delay = min(2.0 * self.delay, 2.0)
+        return delay
 
 
 class CheckedStub:
     """The generated stub whose unary and client-streaming calls raise
-    InvalidArgument for INVALID_ARGUMENT (other errors unchanged)."""
+    ExciteError subclasses, and resend after UNAVAILABLE (and what _may_resend
+    allows) within `retry_unavailable_s` seconds."""
 
-    def __init__(self, stub: Any) -> None:
+    def __init__(self, stub: Any, retry_unavailable_s: float = 0.0) -> None:
         self._stub = stub
+        self._retry_s = retry_unavailable_s
 
     def __getattr__(self, name: str) -> Any:
-        return _CheckedMethod(getattr(self._stub, name))
+        return _CheckedMethod(getattr(self._stub, name), name, self._retry_s)
 
 
 class _CheckedMethod:
-    def __init__(self, method: Any) -> None:
+    def __init__(self, method: Any, name: str, retry_s: float) -> None:
         self._method = method
+        self._name = name
+        self._retry_s = retry_s
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        try:
-            return self._method(*args, **kwargs)
-        except grpc.RpcError as error:
-            raise converted(error) from None
+        backoff = _Backoff(self._retry_s)
+        while True:
+            try:
+                return self._method(*args, **kwargs)
+            except grpc.RpcError as error:
+                delay = backoff.next_delay() if _may_resend(self._name, error) else None
+                if delay is None:
+                    raise converted(error) from None
+                time.sleep(delay)
 
     def __getattr__(self, name: str) -> Any:  # .future, .with_call: unchanged
         return getattr(self._method, name)
@@ -119,18 +260,25 @@ class _CheckedMethod:
 
 class AioCheckedStub:
     """The generated stub on a grpc.aio channel whose unary and client-streaming
-    calls are coroutines raising InvalidArgument for INVALID_ARGUMENT."""
+    calls are coroutines raising ExciteError subclasses, resent as CheckedStub's."""
 
-    def __init__(self, stub: Any) -> None:
+    def __init__(self, stub: Any, retry_unavailable_s: float = 0.0) -> None:
         self._stub = stub
+        self._retry_s = retry_unavailable_s
 
     def __getattr__(self, name: str) -> Any:
         method = getattr(self._stub, name)
+        retry_s = self._retry_s
 
         async def call(*args: Any, **kwargs: Any) -> Any:
-            try:
-                return await method(*args, **kwargs)
-            except grpc.RpcError as error:
-                raise converted(error) from None
+            backoff = _Backoff(retry_s)
+            while True:
+                try:
+                    return await method(*args, **kwargs)
+                except grpc.RpcError as error:
+                    delay = backoff.next_delay() if _may_resend(name, error) else None
+                    if delay is None:
+                        raise converted(error) from None
+                    await asyncio.sleep(delay)
 
         return call
