@@ -138,3 +138,13 @@ def test_installs_into_a_venv_and_runs_without_protoc_or_sources(server, tmp_pat
     assert report["added"] == [12, 12, 0, 11] and report["typed"] == "AddResult"
     assert report["samples_exact"] is True
     assert report["prediction_shape"] == [2, 2] and report["plan_shape"] == [3, 1]
+
+    # Every example runs against the installed package (short runs).
+    short = {"duffing.py": ["--samples=30", "--every=10", "--horizon=5", "--points=200"]}
+    examples = sorted((REPO / "client" / "python" / "examples").glob("*.py"))
+    assert [e.name for e in examples] == sorted(short), "give a new example its short run"
+    for example in examples:
+        run = subprocess.run(
+            [str(python), str(example), f"--server={server.address}", *short[example.name]],
+            env=user_env, cwd=run_dir, capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0, example.name + run.stdout + run.stderr

@@ -17,15 +17,12 @@ the true one on a fixed set of random (x, u) in the region of interest.
 """
 
 import argparse
-import os
 import sys
 import time
 
+import excite
+import grpc
 import numpy as np
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir))
-import excite  # noqa: E402
-import grpc  # noqa: E402
 
 DELTA, ALPHA, BETA = 0.3, -1.0, 1.0  # damping, linear and cubic stiffness
 DT, SUBSTEPS = 0.2, 10  # sampling period [s], RK4 steps per period
