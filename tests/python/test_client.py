@@ -579,3 +579,32 @@ def test_plan_says_what_shape_a_state_has(client):
     with pytest.raises(ValueError, match=r"one state of 2 numbers .* got shape \(3,\)"):
         session.plan(np.zeros(3))
     session.delete()
+
+
+def test_samples_round_trip_through_the_one_csv_layout(client, tmp_path):
+    session = client.create_session(linear_config())
+    x, u, x_next, _, _ = linear_data(12, seed=8)
+    session.add(x, u, x_next, sequences=np.arange(100, 112))
+    path = tmp_path / "samples.csv"
+    data = session.samples()
+    data.to_csv(path)
+    lines = path.read_text().splitlines()
+    assert lines[0] == "x0,x1,u0,x0_next,x1_next,sequence"  # excite-sim's header
+    back = excite.Samples.from_csv(path, 2, 1)
+    for field in ("states", "inputs", "next_states", "sequences"):
+        np.testing.assert_array_equal(getattr(back, field), getattr(data, field))
+    # Into another session with their numbers: all stored, then all duplicates.
+    other = client.create_session(linear_config())
+    assert other.add(back.states, back.inputs, back.next_states,
+                     sequences=back.sequences).stored == 12
+    assert other.add(back.states, back.inputs, back.next_states,
+                     sequences=back.sequences).duplicates == 12
+    bad = tmp_path / "bad.csv"
+    bad.write_text(lines[0] + "\n0.1,0.2,O.5,0.1,0.2,0\n")
+    with pytest.raises(ValueError, match=r"line 2, column 3: 'O.5' is not a finite"):
+        excite.Samples.from_csv(bad, 2, 1)
+    bad.write_text("0.1,0.2,0.5,0.1,0.2,0.5\n")
+    with pytest.raises(ValueError, match=r"line 1: the sequence number '0.5'"):
+        excite.Samples.from_csv(bad, 2, 1)
+    session.delete()
+    other.delete()

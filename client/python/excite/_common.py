@@ -115,6 +115,76 @@ class Samples:
     def __len__(self) -> int:
         return len(self.sequences)
 
+    def to_csv(self, path: Union[str, "os.PathLike[str]"]) -> None:
+        """Writes the transitions in excite's one CSV layout (what ``excite add``
+        reads and ``excite-sim --trajectory`` writes): a header
+        x0..,u0..,x0_next..,sequence, then one row each, numbers exact (17
+        significant digits). Timestamps are not part of the layout."""
+        dx, du = self.states.shape[1], self.inputs.shape[1]
+        header = ([f"x{i}" for i in range(dx)] + [f"u{j}" for j in range(du)]
+                  + [f"x{i}_next" for i in range(dx)] + ["sequence"])
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(",".join(header) + "\n")
+            for x, u, x_next, seq in zip(self.states, self.inputs, self.next_states,
+                                         self.sequences):
+                numbers = [f"{v:.17g}" for v in (*x, *u, *x_next)]
+                f.write(",".join(numbers + [str(int(seq))]) + "\n")
+
+    @classmethod
+    def from_csv(cls, path: Union[str, "os.PathLike[str]"], state_dim: int,
+                 input_dim: int) -> "Samples":
+        """Reads that layout (as ``excite add``: blank lines and '#' comments
+        skipped, the first row a header if every field is a name). Every row needs
+        a sequence number. ValueError naming the line for anything else.
+        Timestamps are NaN (unknown); pass ``sequences`` to ``Session.add``."""
+        columns = 2 * state_dim + input_dim + 1
+        rows: List[List[float]] = []
+        sequences: List[int] = []
+        first = True
+        with open(path, encoding="utf-8") as f:
+            for number, line in enumerate(f, start=1):
+                line = line.strip()
+                if not line or line.startswith("#"):
+                    continue
+                fields = [v.strip() for v in line.split(",")]
+                if first:
+                    first = False
+                    if all(v[:1].isalpha() or v[:1] == "_" for v in fields) and not any(
+                            _is_number(v) for v in fields):
+                        continue
+                if len(fields) != columns:
+                    raise ValueError(
+                        f"{path}: line {number}: want {columns} comma-separated fields "
+                        f"(x: {state_dim}, u: {input_dim}, x_next: {state_dim}, "
+                        f"sequence), found {len(fields)}")
+                values = []
+                for c, v in enumerate(fields[:-1], start=1):
+                    if not _is_number(v) or not np.isfinite(float(v)):
+                        raise ValueError(f"{path}: line {number}, column {c}: {v!r} is "
+                                         "not a finite number")
+                    values.append(float(v))
+                if not fields[-1].isdigit():
+                    raise ValueError(f"{path}: line {number}: the sequence number "
+                                     f"{fields[-1]!r} is not an integer >= 0")
+                rows.append(values)
+                sequences.append(int(fields[-1]))
+        if not rows:
+            raise ValueError(f"{path}: no transitions")
+        data = np.asarray(rows, dtype=np.float64)
+        return cls(states=data[:, :state_dim],
+                   inputs=data[:, state_dim:state_dim + input_dim],
+                   next_states=data[:, state_dim + input_dim:],
+                   sequences=np.asarray(sequences, dtype=np.int64),
+                   timestamps=np.full(len(rows), np.nan))
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
 
 # ------------------------------------------------------------------------ config
 
