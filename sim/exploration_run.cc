@@ -143,6 +143,15 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
 
   absl::StatusOr<v1::Session> session =
       client_.CreateSession(config_.session(), options_.session_id);
+  if (!session.ok() && session.status().code() == absl::StatusCode::kAlreadyExists &&
+      options_.replace_session) {
+    const std::string existing = absl::StrCat("sessions/", options_.session_id);
+    if (absl::Status s = client_.DeleteSession(existing); !s.ok()) {
+      return Annotate(s, absl::StrCat("DeleteSession ", existing, " (--replace)"));
+    }
+    if (options_.log != nullptr) *options_.log << "replaced " << existing << "\n";
+    session = client_.CreateSession(config_.session(), options_.session_id);
+  }
   if (!session.ok()) return Annotate(session.status(), "CreateSession");
   session_name_ = session->name();
   // The server fills the defaults into the config it returns; 2 is the documented
@@ -171,7 +180,10 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   }
   if (!explored.ok()) {
     return Annotate(explored,
-                    absl::StrCat(session_name_, " after ", samples_, " samples"));
+                    absl::StrCat(session_name_, " after ", samples_, " samples (",
+                                 options_.keep_session ? "the session is kept"
+                                                       : "the session was deleted",
+                                 ")"));
   }
 
   Eigen::MatrixXd visited(static_cast<Eigen::Index>(visited_.size()), dx_);
@@ -245,6 +257,10 @@ absl::Status ExplorationRun::Explore() {
   visited_.push_back(x_);
 
   while (samples_ < target) {
+    if (options_.interrupted != nullptr && options_.interrupted->load()) {
+      return absl::CancelledError(
+          absl::StrCat("interrupted after ", samples_, " stored samples"));
+    }
     std::vector<Eigen::VectorXd> inputs;
     const auto plan_start = Clock::now();
     absl::StatusOr<v1::PlanInputsResponse> plan = client_.PlanInputs(

@@ -1,6 +1,7 @@
 #ifndef EXCITE_SIM_EXPLORATION_RUN_H_
 #define EXCITE_SIM_EXPLORATION_RUN_H_
 
+#include <atomic>
 #include <ostream>
 #include <string>
 
@@ -31,6 +32,13 @@ struct ExplorationOptions {
   // in the layout `excite add` reads (client/transition_csv.h): x (measured), u
   // (as applied), x_next (measured), sequence, under a header. May be null.
   std::ostream* trajectory = nullptr;
+  // Set (e.g. by a SIGINT handler) to stop after the current step: the run ends
+  // CANCELLED naming the samples stored, and the session is deleted unless
+  // keep_session (what is stored stays stored until then). May be null.
+  const std::atomic<bool>* interrupted = nullptr;
+  // A session with session_id that exists already is deleted and created anew
+  // (default: CreateSession's ALREADY_EXISTS ends the run).
+  bool replace_session = false;
 };
 
 // Runs one exploration of `plant` against the server behind `client`, as `config`

@@ -5,7 +5,9 @@
 //              --strategy=pa --samples=300 --seed=3 --summary=/tmp/pa.json
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdint>
 #include <fstream>
 #include <iostream>
@@ -42,7 +44,11 @@ ABSL_FLAG(std::string, summary, "", "write the JSON run summary to this file");
 ABSL_FLAG(std::string, trajectory, "",
           "write every stored transition to this CSV file (x, u, x_next, sequence: "
           "the layout excite add reads)");
-ABSL_FLAG(bool, keep_session, false, "keep the session on the server at the end");
+ABSL_FLAG(bool, keep_session, false,
+          "keep the session on the server at the end (also after a failure or Ctrl-C)");
+ABSL_FLAG(bool, replace, false,
+          "with --session_id: delete a session of that id that exists already and "
+          "start anew (default: ALREADY_EXISTS ends the run)");
 ABSL_FLAG(std::string, session_id, "", "session id to ask for; empty: server's choice");
 ABSL_FLAG(int32_t, connect_timeout_s, 10, "how long to wait for the server to be ready");
 ABSL_FLAG(int32_t, retry_unavailable_s, 30,
@@ -60,6 +66,15 @@ int Fail(const absl::Status& status) {
   std::cerr << "excite-sim: " << status.message() << " ("
             << absl::StatusCodeToString(status.code()) << ")\n";
   return 1;
+}
+
+// Ctrl-C (SIGINT) or SIGTERM: the run stops after its current step, deletes its
+// session unless --keep_session, and says so; a second one ends the process.
+std::atomic<bool> interrupted{false};
+
+void OnInterrupt(int signal_number) {
+  interrupted.store(true);
+  std::signal(signal_number, SIG_DFL);
 }
 
 int Main() {
@@ -130,6 +145,10 @@ int Main() {
   ExplorationOptions options;
   options.session_id = absl::GetFlag(FLAGS_session_id);
   options.keep_session = absl::GetFlag(FLAGS_keep_session);
+  options.replace_session = absl::GetFlag(FLAGS_replace);
+  options.interrupted = &interrupted;
+  std::signal(SIGINT, OnInterrupt);
+  std::signal(SIGTERM, OnInterrupt);
   options.log = &std::cout;
   options.uniform_design = uniform_design;
   std::ofstream trajectory;

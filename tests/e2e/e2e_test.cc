@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -279,6 +280,49 @@ TEST_F(EndToEndTest, CliExportsAndImportsASession) {
 
 // A first workflow with the CLI alone: create a session from a plant's config
 // file, add data from CSV, predict and plan, JSON output, and errors in words.
+// Ctrl-C stops excite-sim after its current step and says what happened to the
+// session; --replace starts anew over a kept one.
+TEST_F(EndToEndTest, SimSaysWhatAnInterruptLeavesBehind) {
+  const auto interrupted = [&](const std::vector<std::string>& extra) {
+    std::vector<std::string> argv = {EXCITE_SIM_PATH, "--server=" + address_,
+                                     "--config=" EXCITE_PENDULUM_CONFIG,
+                                     "--session_id=ctrl-c", "--samples=5000"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    auto sim =
+        Subprocess::Start(argv, work_.path() + "/int.out", work_.path() + "/int.err");
+    EXPECT_TRUE(sim.ok()) << sim.status();
+    if (!sim.ok()) return std::string();
+    // Interrupted once it plans (past the random start).
+    EXPECT_TRUE((*sim)->WaitForStdoutLine("step ", seconds(120)).ok());
+    (*sim)->Signal(SIGINT);
+    absl::StatusOr<int> code = (*sim)->Wait(seconds(120));
+    EXPECT_TRUE(code.ok()) << code.status();
+    EXPECT_EQ(code.value_or(-1), 1);
+    return ReadFileOrEmpty(work_.path() + "/int.err");
+  };
+  std::string err = interrupted({});
+  EXPECT_NE(err.find("interrupted after "), std::string::npos) << err;
+  EXPECT_NE(err.find("(the session was deleted)"), std::string::npos) << err;
+  EXPECT_NE(err.find("(CANCELLED)"), std::string::npos) << err;
+  std::string out, cli_err;
+  EXPECT_EQ(RunCli({"sessions", "get", "ctrl-c"}, &out, &cli_err), 1);
+  EXPECT_NE(cli_err.find("NOT_FOUND"), std::string::npos) << cli_err;
+
+  err = interrupted({"--keep_session"});
+  EXPECT_NE(err.find("(the session is kept)"), std::string::npos) << err;
+  ASSERT_EQ(RunCli({"sessions", "get", "ctrl-c"}, &out, &cli_err), 0) << cli_err;
+  // The same id again: refused, unless --replace.
+  EXPECT_EQ(RunSim({"--session_id=ctrl-c", "--samples=12"}, "again", seconds(120)), 1);
+  EXPECT_NE(ReadFileOrEmpty(sim_err_).find("ALREADY_EXISTS"), std::string::npos);
+  ASSERT_EQ(RunSim({"--session_id=ctrl-c", "--samples=12", "--replace"}, "replace",
+                   seconds(120)),
+            0)
+      << ReadFileOrEmpty(sim_err_);
+  EXPECT_NE(ReadFileOrEmpty(sim_out_).find("replaced sessions/ctrl-c"),
+            std::string::npos);
+  StopServer();
+}
+
 TEST_F(EndToEndTest, CliDoesAFirstWorkflowAlone) {
   std::string out, err;
   ASSERT_EQ(
