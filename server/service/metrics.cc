@@ -10,7 +10,10 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
 #include "absl/synchronization/mutex.h"
 #include "excite/v1/exploration_service.pb.h"
 #include "prometheus/collectable.h"
@@ -18,6 +21,7 @@
 #include "prometheus/text_serializer.h"
 #include "server/service/excite_server.h"
 #include "server/service/process_metrics.h"
+#include "server/service/strategy_names.h"
 
 namespace excite::service {
 namespace {
@@ -60,7 +64,12 @@ class MetricsInterceptor final : public grpc::experimental::Interceptor {
         method_ == kPlanPath) {
       if (const auto* response =
               static_cast<const v1::PlanInputsResponse*>(methods->GetSendMessage())) {
-        metrics_->RecordPlan(response->wall_time_ms() / 1000.0);
+        const std::string name = v1::SolverStatus_Name(response->solver_status());
+        absl::string_view status = name;
+        absl::ConsumePrefix(&status, "SOLVER_STATUS_");
+        metrics_->RecordPlan(response->wall_time_ms() / 1000.0,
+                             StrategyShortName(response->planned_by()),
+                             absl::AsciiStrToLower(status));
       }
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
@@ -159,9 +168,9 @@ Metrics::Metrics()
                           .Add({})),
       plan_(prometheus::BuildHistogram()
                 .Name("excite_plan_seconds")
-                .Help("Solver wall time of successful PlanInputs calls.")
-                .Register(*registry_)
-                .Add({}, Bounds())),
+                .Help("Solver wall time of successful PlanInputs calls, by the strategy "
+                      "that planned (auto: its member) and how the solve ended.")
+                .Register(*registry_)),
       fit_(prometheus::BuildHistogram()
                .Name("excite_fit_seconds")
                .Help("Wall time of GP refits (hyperparameter fit and factorisation).")
@@ -177,8 +186,17 @@ Metrics::~Metrics() = default;
 
 void Metrics::RecordRpc(absl::string_view method, absl::string_view code,
                         double seconds) {
-  const prometheus::Labels labels = {{"method", std::string(method)},
-                                     {"code", std::string(code)}};
+  // "/excite.v1.ExplorationService/PlanInputs": service and method apart, as
+  // gRPC's own metrics name them.
+  absl::string_view path = method;
+  absl::ConsumePrefix(&path, "/");
+  const size_t slash = path.rfind('/');
+  const std::string service =
+      slash == absl::string_view::npos ? "unknown" : std::string(path.substr(0, slash));
+  const std::string name =
+      std::string(slash == absl::string_view::npos ? path : path.substr(slash + 1));
+  const prometheus::Labels labels = {
+      {"grpc_service", service}, {"grpc_method", name}, {"code", std::string(code)}};
   rpc_total_.Add(labels).Increment();
   rpc_latency_.Add(labels, Bounds()).Observe(seconds);
 }
@@ -187,7 +205,14 @@ void Metrics::AddSamplesStored(int64_t n) {
   samples_stored_.Increment(static_cast<double>(n));
 }
 
-void Metrics::RecordPlan(double seconds) { plan_.Observe(seconds); }
+void Metrics::RecordPlan(double seconds, absl::string_view strategy,
+                         absl::string_view solver_status) {
+  plan_
+      .Add({{"strategy", std::string(strategy)},
+            {"solver_status", std::string(solver_status)}},
+           Bounds())
+      .Observe(seconds);
+}
 
 void Metrics::RecordFit(double seconds, bool stopped) {
   fit_.Observe(seconds);

@@ -22,11 +22,15 @@ class ProcessCollector;
 class BuildAndLockCollector;
 
 // Process metrics, kept in a prometheus-cpp registry:
-//   excite_rpc_total{method,code}                 counter
-//   excite_rpc_latency_seconds{method,code}       histogram
+//   excite_rpc_total{grpc_service,grpc_method,code}            counter
+//   excite_rpc_latency_seconds{grpc_service,grpc_method,code}  histogram
 //   excite_samples_stored_total                   counter (AddData's and StreamData's
-//   `stored`) excite_plan_seconds                           histogram (PlanInputs' solver
-//                                                 wall time, wall_time_ms)
+//                                                 `stored`)
+//   excite_plan_seconds{strategy,solver_status}   histogram (PlanInputs' solver wall
+//                                                 time, wall_time_ms; strategy: the
+//                                                 one that planned, short name;
+//                                                 solver_status: converged,
+//                                                 time_limit, ...)
 //   excite_fit_seconds                            histogram (GP refits)
 //   excite_fits_stopped_total                     counter (refits ended early by a
 //                                                 deadline or cancellation)
@@ -45,8 +49,10 @@ class Metrics final : public session::MetricsSink {
   // One finished RPC; `method` is the full path ("/pkg.Service/Method").
   void RecordRpc(absl::string_view method, absl::string_view code, double seconds);
   void AddSamplesStored(int64_t n);
-  // One successful plan's solver wall time.
-  void RecordPlan(double seconds);
+  // One successful plan's solver wall time, the strategy that made it ("rec") and
+  // how its solve ended ("converged", "time_limit").
+  void RecordPlan(double seconds, absl::string_view strategy,
+                  absl::string_view solver_status);
   // One refit of a session's GP (ML-II fit and factorisation); `stopped` if a
   // deadline or cancellation ended it early.
   void RecordFit(double seconds, bool stopped) override;
@@ -71,7 +77,7 @@ class Metrics final : public session::MetricsSink {
   prometheus::Family<prometheus::Histogram>& rpc_latency_;
   prometheus::Family<prometheus::Histogram>& store_writes_;
   prometheus::Counter& samples_stored_;
-  prometheus::Histogram& plan_;
+  prometheus::Family<prometheus::Histogram>& plan_;
   prometheus::Histogram& fit_;
   prometheus::Counter& fits_stopped_;
 };

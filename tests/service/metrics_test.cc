@@ -142,27 +142,34 @@ TEST_F(MetricsTest, CountsRpcsSessionsAndSamples) {
 
   const std::string reply = HttpGet(port_, "/metrics");
   EXPECT_THAT(reply, StartsWith("HTTP/1.1 200 OK\r\n"));
-  const std::string p = "/excite.v1.ExplorationService/";
+  const std::string s = ",grpc_service=\"excite.v1.ExplorationService\"";
   // prometheus-cpp sorts labels by name.
-  EXPECT_THAT(reply, HasSubstr(absl::StrCat("excite_rpc_total{code=\"OK\",method=\"", p,
-                                            "ListSessions\"} 3\n")));
+  EXPECT_THAT(reply, HasSubstr(absl::StrCat(
+                         "excite_rpc_total{code=\"OK\",grpc_method=\"ListSessions\"", s,
+                         "} 3\n")));
+  EXPECT_THAT(reply, HasSubstr(absl::StrCat(
+                         "excite_rpc_total{code=\"NOT_FOUND\",grpc_method=\"GetSession\"",
+                         s, "} 1\n")));
   EXPECT_THAT(reply,
-              HasSubstr(absl::StrCat("excite_rpc_total{code=\"NOT_FOUND\",method=\"", p,
-                                     "GetSession\"} 1\n")));
-  EXPECT_THAT(reply, HasSubstr(absl::StrCat(
-                         "excite_rpc_latency_seconds_count{code=\"OK\",method=\"", p,
-                         "ListSessions\"} 3\n")));
-  EXPECT_THAT(reply, HasSubstr(absl::StrCat(
-                         "excite_rpc_latency_seconds_bucket{code=\"OK\",method=\"", p,
-                         "ListSessions\",le=\"+Inf\"} 3\n")));
+              HasSubstr(absl::StrCat("excite_rpc_latency_seconds_count{code=\"OK\","
+                                     "grpc_method=\"ListSessions\"",
+                                     s, "} 3\n")));
+  EXPECT_THAT(reply,
+              HasSubstr(absl::StrCat("excite_rpc_latency_seconds_bucket{code=\"OK\","
+                                     "grpc_method=\"ListSessions\"",
+                                     s, ",le=\"+Inf\"} 3\n")));
   EXPECT_THAT(reply, HasSubstr("excite_samples_stored_total 7\n"));
   EXPECT_THAT(reply, HasSubstr("excite_samples 7\n"));
   EXPECT_THAT(reply, HasSubstr("excite_sessions 1\n"));
   EXPECT_THAT(reply, HasSubstr("# TYPE excite_memory_estimate_bytes gauge\n"));
   EXPECT_THAT(reply, HasSubstr("# TYPE excite_memory_budget_bytes gauge\n"));
   EXPECT_THAT(reply, Not(HasSubstr("excite_memory_estimate_bytes 0\n")));
-  EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_count 1\n"));
-  EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_bucket{le=\"+Inf\"} 1\n"));
+  // By the strategy that planned and how the solve ended: plans that hit a limit
+  // are countable.
+  EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_count{solver_status=\"converged\","
+                               "strategy=\"random\"} 1\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_plan_seconds_bucket{solver_status=\"converged\","
+                               "strategy=\"random\",le=\"+Inf\"} 1\n"));
   EXPECT_THAT(reply, HasSubstr("excite_fit_seconds_count 1\n"));
   EXPECT_THAT(reply, HasSubstr("excite_fits_stopped_total 0\n"));
   EXPECT_THAT(reply,
