@@ -280,6 +280,22 @@ int Sessions(excite::client::ExciteClient& client, const std::vector<std::string
   return UsageError(absl::StrCat("sessions: unknown sub-command \"", verb, "\""));
 }
 
+// "theta [rad], theta_dot [rad/s]" from a config's names and units, or "x0, x1"
+// (`prefix` and the index) when it names none.
+std::string DimensionNames(const google::protobuf::RepeatedPtrField<std::string>& names,
+                           const google::protobuf::RepeatedPtrField<std::string>& units,
+                           int dim, const char* prefix) {
+  std::string out;
+  for (int i = 0; i < dim; ++i) {
+    absl::StrAppend(&out, i == 0 ? "" : ", ",
+                    i < names.size() ? names.Get(i) : absl::StrCat(prefix, i));
+    if (i < units.size() && !units.Get(i).empty()) {
+      absl::StrAppend(&out, " [", units.Get(i), "]");
+    }
+  }
+  return out;
+}
+
 // The session NAME of predict and plan: the argument after the command, or
 // --session (the older spelling); empty after a usage error was printed.
 std::string SessionArgument(const std::vector<std::string>& args, int* exit_code) {
@@ -325,6 +341,12 @@ int Predict(excite::client::ExciteClient& client, const std::vector<std::string>
   const int dx = session.ok() ? session->config().state_dim() : response->mean_size();
   const int points = dx > 0 ? response->mean_size() / dx : 0;
   std::printf("model_version %lld\n", static_cast<long long>(response->model_version()));
+  if (session.ok()) {
+    std::printf("next state: %s\n",
+                DimensionNames(session->config().state_names(),
+                               session->config().state_units(), dx, "x")
+                    .c_str());
+  }
   for (int i = 0; i < points; ++i) {
     std::printf("point %d\n  mean     %s\n  variance %s\n", i,
                 Row(response->mean(), i, dx).c_str(),
@@ -356,6 +378,13 @@ int Plan(excite::client::ExciteClient& client, const std::vector<std::string>& a
       excite::v1::SolverStatus_Name(plan->solver_status()).c_str(), plan->iterations(),
       plan->wall_time_ms(), plan->objective(),
       static_cast<long long>(plan->model_version()));
+  if (absl::StatusOr<excite::v1::Session> session = client.GetSession(name);
+      session.ok()) {
+    const excite::v1::SessionConfig& c = session->config();
+    std::printf("input: %s\nstate: %s\n",
+                DimensionNames(c.input_names(), c.input_units(), du, "u").c_str(),
+                DimensionNames(c.state_names(), c.state_units(), dx, "x").c_str());
+  }
   std::printf("%4s | %-*s | %-*s | %s\n", "step", 11 * du - 1, "input", 11 * dx - 1,
               "predicted state", "latent variance");
   for (int i = 0; i < horizon; ++i) {

@@ -196,6 +196,10 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   if (!coverage.ok()) return Annotate(coverage.status(), "coverage");
 
   summary_.system = config_.system();
+  summary_.state_names.assign(config_.session().state_names().begin(),
+                              config_.session().state_names().end());
+  summary_.state_units.assign(config_.session().state_units().begin(),
+                              config_.session().state_units().end());
   summary_.strategy = options_.uniform_design
                           ? "uniform"
                           : service::StrategyShortName(config_.session().strategy());

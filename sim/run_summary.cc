@@ -62,6 +62,13 @@ std::string RunSummaryToJson(const RunSummary& summary) {
                     JsonNumber(summary.final_rmse_per_dimension[j]));
   }
   per_dimension += "]";
+  const auto strings = [](const std::vector<std::string>& values) {
+    std::string out = "[";
+    for (size_t i = 0; i < values.size(); ++i) {
+      absl::StrAppend(&out, i == 0 ? "" : ", ", JsonString(values[i]));
+    }
+    return out + "]";
+  };
   const std::string joint =
       summary.coverage_joint.has_value() ? JsonNumber(*summary.coverage_joint) : "null";
   const std::string left_safe_box =
@@ -80,6 +87,8 @@ std::string RunSummaryToJson(const RunSummary& summary) {
       "  \"samples\": ", summary.samples, ",\n",                //
       "  \"final_rmse\": ", JsonNumber(summary.final_rmse), ",\n",
       "  \"final_rmse_per_dimension\": ", per_dimension, ",\n",
+      "  \"state_names\": ", strings(summary.state_names), ",\n",
+      "  \"state_units\": ", strings(summary.state_units), ",\n",
       "  \"final_nlpd\": ", JsonNumber(summary.final_nlpd), ",\n",
       "  \"final_inside_95\": ", JsonNumber(summary.final_inside_95), ",\n",
       "  \"rollout_rmse_10\": ", JsonNumber(summary.rollout_rmse_10), ",\n",

@@ -28,6 +28,9 @@ struct RunSummary {
   double final_rmse = 0.0;
   // The final RMSE per state dimension (RmsePerDimension); empty if never evaluated.
   std::vector<double> final_rmse_per_dimension;
+  // The session's state_names and state_units (empty if the config names none).
+  std::vector<std::string> state_names;
+  std::vector<std::string> state_units;
   // Calibration of the last evaluation (evaluation.h, ComputeCalibration): mean
   // negative log predictive density [nats] and the share of errors inside the 95 %
   // interval; NaN if never evaluated.
@@ -55,9 +58,9 @@ struct RunSummary {
 };
 
 // The summary as one JSON object with the keys system, strategy, session, samples,
-// final_rmse, final_rmse_per_dimension ([...]), final_nlpd, final_inside_95,
-// rollout_rmse_10, rollout_rmse_30, coverage_marginal, coverage_joint,
-// rmse_history ([[samples, rmse], ...]), plan_ms_p50, plans, planned_by
+// final_rmse, final_rmse_per_dimension ([...]), state_names, state_units ([...]),
+// final_nlpd, final_inside_95, rollout_rmse_10, rollout_rmse_30, coverage_marginal,
+// coverage_joint, rmse_history ([[samples, rmse], ...]), plan_ms_p50, plans, planned_by
 // ({"rec": n, ...}), random_steps, plan_retries,
 // left_safe_box, wall_s. Non-finite numbers and a missing coverage_joint or left_safe_box
 // are written as null. Ends with a newline.

@@ -180,6 +180,18 @@ int Main() {
           ? absl::StrFormat("%.3f", *summary->coverage_joint)
           : "n/a",
       summary->plan_ms_p50, summary->wall_s);
+  if (summary->state_names.size() == summary->final_rmse_per_dimension.size() &&
+      !summary->state_names.empty()) {
+    std::string line = "final rmse per dimension:";
+    for (size_t j = 0; j < summary->state_names.size(); ++j) {
+      const std::string unit =
+          j < summary->state_units.size() ? summary->state_units[j] : std::string();
+      absl::StrAppend(&line, j == 0 ? " " : ", ", summary->state_names[j], " ",
+                      absl::StrFormat("%.4g", summary->final_rmse_per_dimension[j]),
+                      unit.empty() ? "" : " ", unit);
+    }
+    std::cout << line << "\n";
+  }
   if (summary->left_safe_box.has_value()) {
     std::cout << absl::StrFormat("visited states outside the safe box: %.1f %%\n",
                                  100.0 * *summary->left_safe_box);

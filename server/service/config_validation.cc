@@ -1,5 +1,6 @@
 #include "server/service/config_validation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -291,6 +292,61 @@ absl::Status ValidateAngles(absl::string_view path, const v1::SessionConfig& con
   return absl::OkStatus();
 }
 
+// state_names, input_names, state_units, input_units: empty or one per
+// dimension; names identifiers of at most 32 characters, all different; units at
+// most 16 printable ASCII characters.
+absl::Status ValidateNames(absl::string_view path, const v1::SessionConfig& config) {
+  struct List {
+    const char* field;
+    const google::protobuf::RepeatedPtrField<std::string>& values;
+    int dim;
+    bool names;
+  };
+  const List lists[] = {{"state_names", config.state_names(), config.state_dim(), true},
+                        {"input_names", config.input_names(), config.input_dim(), true},
+                        {"state_units", config.state_units(), config.state_dim(), false},
+                        {"input_units", config.input_units(), config.input_dim(), false}};
+  std::vector<std::string> seen;
+  for (const List& list : lists) {
+    if (list.values.empty()) continue;
+    if (list.values.size() != list.dim) {
+      return Invalid(Field(path, list.field),
+                     absl::StrCat("must be empty or have one entry per dimension (",
+                                  list.dim, "), got ", list.values.size()));
+    }
+    for (int i = 0; i < list.values.size(); ++i) {
+      const std::string& v = list.values.Get(i);
+      bool ok = true;
+      for (char c : v) {
+        ok = ok && (list.names ? (absl::ascii_isalnum(c) || c == '_')
+                               : (c >= 0x20 && c < 0x7F));
+      }
+      if (list.names) {
+        ok = ok && !v.empty() && v.size() <= 32 && absl::ascii_isalpha(v[0]);
+      } else {
+        ok = ok && v.size() <= 16;
+      }
+      if (!ok) {
+        return Invalid(Indexed(path, list.field, i),
+                       absl::StrCat(list.names
+                                        ? "a name is 1-32 letters, digits and _, "
+                                          "starting with a letter"
+                                        : "a unit is at most 16 printable ASCII "
+                                          "characters",
+                                    ", got \"", v.substr(0, 40), "\""));
+      }
+      if (list.names) {
+        if (std::find(seen.begin(), seen.end(), v) != seen.end()) {
+          return Invalid(Indexed(path, list.field, i),
+                         absl::StrCat("\"", v, "\" names two dimensions"));
+        }
+        seen.push_back(v);
+      }
+    }
+  }
+  return absl::OkStatus();
+}
+
 // SafetyConfig: 0 or state_dim intervals; the margin filled in (2) when a box
 // is set.
 absl::Status ValidateSafety(absl::string_view path, v1::SessionConfig* config) {
@@ -420,6 +476,7 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
                 "kernel.fit false, kernel.fixed[i].noise_variance is used)"));
   }
   if (dims_ok) problems.Add(ValidateAngles(path, *config));
+  if (dims_ok) problems.Add(ValidateNames(path, *config));
   if (dims_ok) problems.Add(ValidateKernel(path, *config, config->mutable_kernel()));
 
   if (config->target() == v1::TARGET_UNSPECIFIED) config->set_target(v1::TARGET_DELTA);

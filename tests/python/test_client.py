@@ -587,6 +587,7 @@ def test_samples_round_trip_through_the_one_csv_layout(client, tmp_path):
     session.add(x, u, x_next, sequences=np.arange(100, 112))
     path = tmp_path / "samples.csv"
     data = session.samples()
+    assert data.state_names == () and data.input_units == ()  # none named
     data.to_csv(path)
     lines = path.read_text().splitlines()
     assert lines[0] == "x0,x1,u0,x0_next,x1_next,sequence"  # excite-sim's header
@@ -608,3 +609,20 @@ def test_samples_round_trip_through_the_one_csv_layout(client, tmp_path):
         excite.Samples.from_csv(bad, 2, 1)
     session.delete()
     other.delete()
+
+
+def test_named_dimensions_are_kept_and_checked(client):
+    named = client.create_session(linear_config(
+        state_names=["position", "speed"], state_units=["m", "m/s"],
+        input_names=["force"], input_units=["N"]))
+    x, u, x_next, _, _ = linear_data(3, seed=9)
+    named.add(x, u, x_next)
+    data = named.samples()
+    assert data.state_names == ("position", "speed") and data.input_units == ("N",)
+    named.delete()
+    with pytest.raises(excite.InvalidArgument) as error:
+        client.create_session(linear_config(state_names=["position", "position"]))
+    assert "names two dimensions" in dict(error.value.violations)["config.state_names[1]"]
+    with pytest.raises(excite.InvalidArgument) as error:
+        client.create_session(linear_config(input_names=["a", "b"]))
+    assert "one entry per dimension (1)" in dict(error.value.violations)["config.input_names"]

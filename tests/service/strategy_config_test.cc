@@ -292,6 +292,34 @@ TEST(StrategyConfigTest, AutoRefusesMembersItCannotUse) {
                 "STRATEGY_ROI (a member of STRATEGY_AUTO) needs state_dim (2)");
 }
 
+TEST(StrategyConfigTest, DimensionNamesAndUnits) {
+  v1::SessionConfig c = Config(v1::STRATEGY_REC);
+  c.add_state_names("theta");
+  c.add_state_names("theta_dot");
+  c.add_state_units("rad");
+  c.add_state_units("rad/s");
+  c.add_input_names("tau");
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  v1::SessionConfig bad = c;
+  bad.add_input_names("extra");
+  ExpectInvalid(bad, "config.input_names", "one entry per dimension (1), got 2");
+  bad = c;
+  bad.set_input_names(0, "theta");
+  ExpectInvalid(bad, "config.input_names[0]", "\"theta\" names two dimensions");
+  bad = c;
+  bad.set_state_names(1, "2nd");
+  ExpectInvalid(bad, "config.state_names[1]", "starting with a letter");
+  bad = c;
+  bad.set_state_names(1, std::string(33, 'a'));
+  ExpectInvalid(bad, "config.state_names[1]", "1-32 letters");
+  bad = c;
+  bad.set_state_units(0, "radians per tick!!");  // 18 characters
+  ExpectInvalid(bad, "config.state_units[0]", "at most 16 printable");
+  bad = c;
+  bad.set_state_units(0, "r\nad");
+  ExpectInvalid(bad, "config.state_units[0]", "printable");
+}
+
 TEST(StrategyConfigTest, SafeBox) {
   v1::SessionConfig c = Config(v1::STRATEGY_REC);
   ASSERT_TRUE(ValidateSessionConfig(&c).ok());

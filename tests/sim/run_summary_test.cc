@@ -27,6 +27,8 @@ RunSummary Example() {
   summary.plan_ms_p50 = 12.0;
   summary.plans = 18;
   summary.planned_by = {{"rec", 11}, {"random", 7}};
+  summary.state_names = {"theta", "theta_dot"};
+  summary.state_units = {"rad", "rad/s"};
   summary.random_steps = 2;
   summary.wall_s = 3.0;
   return summary;
@@ -41,6 +43,8 @@ TEST(RunSummaryTest, Json) {
             "  \"samples\": 20,\n"
             "  \"final_rmse\": 0.5,\n"
             "  \"final_rmse_per_dimension\": [0.25, 0.375],\n"
+            "  \"state_names\": [\"theta\", \"theta_dot\"],\n"
+            "  \"state_units\": [\"rad\", \"rad/s\"],\n"
             "  \"final_nlpd\": -1.5,\n"
             "  \"final_inside_95\": 0.875,\n"
             "  \"rollout_rmse_10\": 0.75,\n"

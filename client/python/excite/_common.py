@@ -104,13 +104,19 @@ class AddResult:
 class Samples:
     """A session's stored transitions in sequence order (from ExportSession):
     ``states`` and ``next_states`` (n, state_dim), ``inputs`` (n, input_dim),
-    ``sequences`` (n,) int64, ``timestamps`` (n,) seconds since the epoch."""
+    ``sequences`` (n,) int64, ``timestamps`` (n,) seconds since the epoch;
+    ``state_names``/``input_names`` and their units as the session's config names
+    them (empty if it does not)."""
 
     states: FloatArray
     inputs: FloatArray
     next_states: FloatArray
     sequences: IntArray
     timestamps: FloatArray
+    state_names: Tuple[str, ...] = ()
+    input_names: Tuple[str, ...] = ()
+    state_units: Tuple[str, ...] = ()
+    input_units: Tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return len(self.sequences)
@@ -486,6 +492,10 @@ def samples(archive: pb.SessionArchive) -> Samples:
         next_states=matrix("next_state", dx),
         sequences=np.asarray([t.sequence for t in items], dtype=np.int64),
         timestamps=np.asarray([t.timestamp_s for t in items], dtype=np.float64),
+        state_names=tuple(archive.config.state_names),
+        input_names=tuple(archive.config.input_names),
+        state_units=tuple(archive.config.state_units),
+        input_units=tuple(archive.config.input_units),
     )
 
 
