@@ -204,9 +204,9 @@ def draw_rmse_panel(ax, history, system, strategies, strategy_labels, title,
         ax.yaxis.set_major_locator(ticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
         ax.yaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: f"{v:g}"))
         ax.yaxis.set_minor_formatter(ticker.NullFormatter())
-        ax.set_ylabel("RMSE (log scale)")
+        ax.set_ylabel("RMSE, all state dims (log scale)")
     else:
-        ax.set_ylabel("RMSE")
+        ax.set_ylabel("RMSE, all state dims")
     ax.set_ylim(*plan["ylim"])
     ax.set_xlim(0, plan["xmax"])
     ax.set_xlabel("samples")
@@ -220,11 +220,16 @@ def draw_rmse_panel(ax, history, system, strategies, strategy_labels, title,
     return plan
 
 
-RULE_TEXT = (f"Bold, with ± std band: the {HIGHLIGHT} strategies with the lowest final "
-             "mean RMSE in the panel (and any that reads the same as the third); "
-             "thin: the others; dashed: uniform (ideal), the "
-             "reference no plant can follow. n = trials. Log y axis where the mean "
-             f"curves span more than {LOG_DECADES:g} decades, else linear from 0.")
+def rule_text(with_reference):
+    """The figure's rule; the dashed reference only when one is drawn."""
+    reference = ("dashed: uniform (ideal), the reference no plant can follow. "
+                 if with_reference else "")
+    return (f"Bold, with ± std band: the {HIGHLIGHT} strategies with the lowest final "
+            "mean RMSE in the panel (and any that reads the same as the third); "
+            f"thin: the others; {reference}n = trials. RMSE pools every state "
+            "dimension in its own units (e.g. rad and rad/s together). Log y axis "
+            f"where the mean curves span more than {LOG_DECADES:g} decades, else "
+            "linear from 0.")
 
 
 def plot_rmse_system(path, history, system, strategies, system_label,
@@ -257,7 +262,9 @@ def plot_rmse_all(path, history, systems, strategies, system_labels,
     spare = list(axes.flat[len(systems):])
     for ax in spare:
         ax.axis("off")
-    rule = textwrap.fill(RULE_TEXT, 60 if spare else 160)
+    drawn_reference = any(history.get((s, r)) for s in systems for r in REFERENCES
+                          if r in strategies)
+    rule = textwrap.fill(rule_text(drawn_reference), 60 if spare else 160)
     if spare:
         spare[0].text(0.0, 0.5, rule, va="center", ha="left", fontsize=9,
                       transform=spare[0].transAxes)
@@ -289,18 +296,18 @@ def plot_coverage(path, stats, systems, strategies, system_labels, strategy_labe
                 continue
             c = entry["coverage_marginal"]
             xs.append(j - 0.4 + width * (i + 0.5))
-            heights.append(100.0 * c["mean"])
-            errs.append(100.0 * (c["std"] or 0.0))
+            height = 100.0 * c["mean"]
+            spread = 100.0 * (c["std"] or 0.0)
+            heights.append(height)
+            # Clipped to [0, 100] %: a share cannot leave it.
+            errs.append((min(spread, height), min(spread, 100.0 - height)))
             counts.append(c["n"])
         n_text = trial_count_text(min(counts), max(counts)) if counts else "n=0"
-        ax.bar(xs, heights, width, yerr=errs, capsize=2,
+        yerr = [[e[0] for e in errs], [e[1] for e in errs]] if errs else None
+        ax.bar(xs, heights, width, yerr=yerr, capsize=2,
                color=_color(strategy, strategies.index(strategy)),
                edgecolor="white", lw=0.5,
                label=f"{strategy_labels.get(strategy, strategy)} ({n_text})")
-        for x, n in zip(xs, counts):
-            ax.text(x, 1.5, f"n={n}", rotation=90, ha="center", va="bottom",
-                    fontsize=6, color="white" if strategy not in ("optimistic",)
-                    else "black")
     ax.set_xticks(range(len(systems)))
     ax.set_xticklabels([system_labels.get(s, s) for s in systems])
     ax.set_ylabel("coverage, marginal (% of region)")
