@@ -29,7 +29,7 @@ TEST(StrategyTableTest, EveryRowIsCompleteForItsMethod) {
       EXPECT_TRUE(info.apply_all);  // a signal's next samples are all applied
     }
   }
-  EXPECT_EQ(index, static_cast<int>(Strategy::kOptimistic) + 1);
+  EXPECT_EQ(index, static_cast<int>(Strategy::kAuto) + 1);
   EXPECT_EQ(FindStrategy("REC"), nullptr);
   EXPECT_EQ(FindStrategy(""), nullptr);
   // What the rest of the server relies on.
@@ -41,6 +41,17 @@ TEST(StrategyTableTest, EveryRowIsCompleteForItsMethod) {
   EXPECT_TRUE(InfoOf(Strategy::kMi).needs_joint_covariances);
   EXPECT_TRUE(InfoOf(Strategy::kRoi).needs_joint_covariances);
   EXPECT_TRUE(InfoOf(Strategy::kOptimistic).optimistic_dynamics);
+  EXPECT_EQ(InfoOf(Strategy::kAuto).method, PlanMethod::kBandit);
+  EXPECT_FALSE(InfoOf(Strategy::kAuto).apply_all);
+  // auto's members: the receding-horizon trajectory strategies and the signals.
+  for (Strategy s : {Strategy::kPa, Strategy::kSep, Strategy::kAuto}) {
+    EXPECT_FALSE(CanBeAutoMember(s)) << InfoOf(s).name;
+  }
+  for (Strategy s : {Strategy::kRec, Strategy::kGreedy, Strategy::kMi, Strategy::kRoi,
+                     Strategy::kOptimistic, Strategy::kPrbs, Strategy::kChirp,
+                     Strategy::kRandom}) {
+    EXPECT_TRUE(CanBeAutoMember(s)) << InfoOf(s).name;
+  }
 }
 
 }  // namespace
