@@ -82,6 +82,10 @@ ABSL_FLAG(std::string, header, "auto",
           "add: whether the CSV's first row is a header: yes, no, or auto (it is if "
           "every field is a name, not a number).");
 ABSL_FLAG(int, timeout_s, 60, "Deadline of each call in seconds.");
+ABSL_FLAG(int, retry_unavailable_s, 0,
+          "Resend a call that failed UNAVAILABLE (a server restarting, a replica failing "
+          "over behind a proxy) for up to this many seconds, as excite-sim does; 0: "
+          "fail at once.");
 ABSL_FLAG(int, max_message_mb, 64,
           "Largest message sent or received, in MiB (export/import of big sessions).");
 ABSL_FLAG(std::string, output, "text", "text (for people) or json (one JSON document).");
@@ -89,7 +93,8 @@ ABSL_FLAG(std::string, output, "text", "text (for people) or json (one JSON docu
 namespace {
 
 constexpr char kUsage[] =
-    "excite [--server=HOST:PORT] [--output=text|json] [--timeout_s=S] COMMAND\n"
+    "excite [--server=HOST:PORT] [--output=text|json] [--timeout_s=S]\n"
+    "       [--retry_unavailable_s=S] COMMAND\n"
     "  sessions list [--filter='labels.KEY = \"VALUE\" AND ...'] [--page_size=N]\n"
     "  sessions get NAME\n"
     "  sessions create --config=FILE [--id=ID] [--display_name=TEXT]\n"
@@ -546,6 +551,8 @@ int main(int argc, char** argv) {
   if (timeout_s < 1) return UsageError("--timeout_s must be >= 1");
   options.default_deadline = std::chrono::seconds(timeout_s);
   options.plan_deadline = std::chrono::seconds(timeout_s);
+  options.retry_unavailable =
+      std::chrono::seconds(std::max(0, absl::GetFlag(FLAGS_retry_unavailable_s)));
   options.max_message_mb = absl::GetFlag(FLAGS_max_message_mb);
   if (options.max_message_mb < 1 || options.max_message_mb > 2047) {
     return UsageError("--max_message_mb must be in [1, 2047]");

@@ -244,9 +244,11 @@ done
 scale_port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 scale_up=1
 scale up -d >"$out/scale.log" 2>&1 || { cat "$out/scale.log" >&2; fail "compose.scale up failed"; }
+# Resends after UNAVAILABLE: right after a replica is killed the proxy may still
+# route a call to it (503) until its health check marks it down.
 cli() {
   podman run --rm --no-healthcheck --network host "$image" \
-    excite --server="127.0.0.1:$scale_port" "$@"
+    excite --server="127.0.0.1:$scale_port" --retry_unavailable_s=30 "$@"
 }
 # Wait until both sessions hold samples, then kill the replica serving one.
 victim=""
