@@ -177,11 +177,10 @@ TEST_F(ServiceTest, PlanInputsPerStrategy) {
     int horizon;
     int apply_count;
   };
-  for (const Case& c :
-       {Case{v1::STRATEGY_REC, 5, 1}, Case{v1::STRATEGY_PA, 5, 5},
-        Case{v1::STRATEGY_GREEDY, 1, 1}, Case{v1::STRATEGY_MI, 5, 1},
-        Case{v1::STRATEGY_ROI, 5, 1}, Case{v1::STRATEGY_OPTIMISTIC, 5, 1},
-        Case{v1::STRATEGY_AUTO, 5, 1}}) {
+  for (const Case& c : {Case{v1::STRATEGY_REC, 5, 1}, Case{v1::STRATEGY_PA, 5, 5},
+                        Case{v1::STRATEGY_GREEDY, 1, 1}, Case{v1::STRATEGY_MI, 5, 1},
+                        Case{v1::STRATEGY_ROI, 5, 1}, Case{v1::STRATEGY_OPTIMISTIC, 5, 1},
+                        Case{v1::STRATEGY_AUTO, 5, 1}}) {
     SCOPED_TRACE(v1::Strategy_Name(c.strategy));
     const std::string id = absl::AsciiStrToLower(v1::Strategy_Name(c.strategy));
     std::string session_id = id;
@@ -197,7 +196,9 @@ TEST_F(ServiceTest, PlanInputsPerStrategy) {
     EXPECT_EQ(plan->horizon(), c.horizon);
     EXPECT_EQ(plan->apply_count(), c.apply_count);
     if (c.strategy == v1::STRATEGY_AUTO) {
-      const auto& members = client_->GetSession(name)->config().auto_().members();
+      const absl::StatusOr<v1::Session> session = client_->GetSession(name);
+      ASSERT_TRUE(session.ok()) << session.status();
+      const auto& members = session->config().auto_().members();
       EXPECT_NE(std::find(members.begin(), members.end(), plan->planned_by()),
                 members.end())
           << v1::Strategy_Name(plan->planned_by());
