@@ -172,18 +172,20 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
 
   absl::Status explored = Explore();
   if (explored.ok()) explored = RollOut();
+  // What became of the session, for a failure's message.
+  std::string left = "the session is kept";
   if (!options_.keep_session) {
     const absl::Status deleted = client_.DeleteSession(session_name_);
     if (explored.ok() && !deleted.ok()) {
       explored = Annotate(deleted, absl::StrCat("DeleteSession ", session_name_));
     }
+    left = deleted.ok()
+               ? "the session was deleted"
+               : absl::StrCat("deleting the session failed: ", deleted.message());
   }
   if (!explored.ok()) {
-    return Annotate(explored,
-                    absl::StrCat(session_name_, " after ", samples_, " samples (",
-                                 options_.keep_session ? "the session is kept"
-                                                       : "the session was deleted",
-                                 ")"));
+    return Annotate(explored, absl::StrCat(session_name_, " after ", samples_,
+                                           " samples (", left, ")"));
   }
 
   Eigen::MatrixXd visited(static_cast<Eigen::Index>(visited_.size()), dx_);

@@ -29,9 +29,9 @@
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "excite-server address, HOST:PORT");
 ABSL_FLAG(std::string, config, "", "SimConfig textproto file (required)");
 ABSL_FLAG(std::string, strategy, "",
-          "rec, pa, greedy, sep, mi, roi, optimistic, auto, prbs, chirp or random; "
-          "overrides "
-          "the config's. Or uniform: the idealised reference design, every (x, u) drawn "
+          "rec, pa, greedy, sep, mi, roi, optimistic, auto, prbs, chirp or random (any "
+          "case, or the STRATEGY_ name); overrides the config's. Or uniform: the "
+          "idealised reference design, every (x, u) drawn "
           "uniformly from the region x the input bounds (no plant can follow it)");
 ABSL_FLAG(int32_t, samples, 0, "transitions to collect; 0 keeps the config's");
 ABSL_FLAG(int64_t, seed, -1,

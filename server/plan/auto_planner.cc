@@ -11,17 +11,12 @@ namespace {
 
 constexpr uint64_t kAutoStream = 0x6175746f;  // "auto"
 
-std::vector<Strategy> MembersOf(const PlanOptions& options) {
-  if (!options.auto_members.empty()) return options.auto_members;
-  return DefaultAutoMembers(options.state_lower.size() > 0);
-}
-
 }  // namespace
 
 AutoPlanner::AutoPlanner(const PlanOptions& options)
     : seed_(options.seed),
       angle_dims_(options.angle_dims),
-      members_(MembersOf(options)),
+      members_(options.AutoMembers()),
       bandit_(static_cast<int>(members_.size()), kAutoGamma) {
   planners_.reserve(members_.size());
   for (Strategy member : members_) {

@@ -35,6 +35,10 @@ absl::Status ValidateSignal(const SignalOptions& signal, Strategy strategy) {
 
 }  // namespace
 
+std::vector<Strategy> PlanOptions::AutoMembers() const {
+  return auto_members.empty() ? DefaultAutoMembers(state_lower.size() > 0) : auto_members;
+}
+
 absl::Status PlanOptions::Validate(int state_dim, int input_dim) const {
   const Eigen::VectorXd& lower = input_lower;
   const Eigen::VectorXd& upper = input_upper;
@@ -67,21 +71,17 @@ absl::Status PlanOptions::Validate(int state_dim, int input_dim) const {
     return s;
   }
   if (strategy == Strategy::kAuto) {
-    const std::vector<Strategy> members =
-        auto_members.empty() ? DefaultAutoMembers(state_lower.size() > 0) : auto_members;
-    for (size_t i = 0; i < members.size(); ++i) {
-      const Strategy member = members[i];
-      if (!CanBeAutoMember(member)) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            InfoOf(member).name,
-            " cannot be a member of auto (pa, sep and auto cannot; the others can)"));
-      }
-      for (size_t j = 0; j < i; ++j) {
-        if (members[j] == member) {
-          return absl::InvalidArgumentError(
-              absl::StrCat(InfoOf(member).name, " is named twice among auto's members"));
-        }
-      }
+    const std::vector<Strategy> members = AutoMembers();
+    bool repeated = false;
+    if (const int bad = FirstBadAutoMember(members, &repeated); bad >= 0) {
+      const absl::string_view name = InfoOf(members[static_cast<size_t>(bad)]).name;
+      return absl::InvalidArgumentError(
+          repeated ? absl::StrCat(name, " is named twice among auto's members")
+                   : absl::StrCat(name,
+                                  " cannot be a member of auto (pa, sep and auto "
+                                  "cannot; the others can)"));
+    }
+    for (const Strategy member : members) {
       PlanOptions own = *this;
       own.strategy = member;
       own.auto_members.clear();

@@ -64,6 +64,8 @@ struct PlanOptions {
   // kAuto: the member strategies its bandit draws from (each CanBeAutoMember,
   // no repeats); empty: DefaultAutoMembers.
   std::vector<Strategy> auto_members;
+  // auto_members, or DefaultAutoMembers for these options' state bounds.
+  std::vector<Strategy> AutoMembers() const;
   // State constraints on the planned mean trajectory of every model-based
   // strategy (inactive by default).
   SafeBox safe_box;

@@ -1,5 +1,6 @@
 #include "server/plan/strategy.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <utility>
@@ -227,6 +228,15 @@ std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds) {
   if (has_state_bounds) members.push_back(Strategy::kRoi);
   members.push_back(Strategy::kRandom);
   return members;
+}
+
+int FirstBadAutoMember(absl::Span<const Strategy> members, bool* repeated) {
+  for (size_t i = 0; i < members.size(); ++i) {
+    *repeated = std::find(members.begin(), members.begin() + i, members[i]) !=
+                members.begin() + i;
+    if (*repeated || !CanBeAutoMember(members[i])) return static_cast<int>(i);
+  }
+  return -1;
 }
 
 const StrategyInfo* FindStrategy(absl::string_view name) {

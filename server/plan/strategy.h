@@ -103,6 +103,9 @@ bool CanBeAutoMember(Strategy strategy);
 // state bounds, which it needs) and random, the one member that does not use the
 // model (docs/bench_paper/auto-rule-2026-12-06.md).
 std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds);
+// The index of the first of `members` that auto cannot take: one that cannot be a
+// member (*repeated = false) or one named before (*repeated = true); -1 if none.
+int FirstBadAutoMember(absl::Span<const Strategy> members, bool* repeated);
 
 // True for the strategies that never evaluate the model (prbs, chirp, random).
 inline bool IsModelFree(Strategy strategy) {

@@ -162,26 +162,26 @@ absl::Status ValidateAuto(absl::string_view path, v1::SessionConfig* config) {
     }
     return absl::OkStatus();
   }
+  std::vector<plan::Strategy> engine;
   for (int i = 0; i < members->size(); ++i) {
     const auto member = static_cast<v1::Strategy>(members->Get(i));
-    const std::string at = absl::StrCat(mpath, "[", i, "]");
     if (member == v1::STRATEGY_UNSPECIFIED || !v1::Strategy_IsValid(member)) {
-      return Invalid(at, absl::StrCat("unknown strategy ", static_cast<int>(member),
-                                      "; valid: ", ValidStrategyNames()));
+      return Invalid(absl::StrCat(mpath, "[", i, "]"),
+                     absl::StrCat("unknown strategy ", static_cast<int>(member),
+                                  "; valid: ", ValidStrategyNames()));
     }
-    if (!plan::CanBeAutoMember(EngineStrategy(member).strategy)) {
-      return Invalid(at, absl::StrCat(v1::Strategy_Name(member),
-                                      " cannot be a member of STRATEGY_AUTO (pa would "
-                                      "be rec inside it, sep's plans must be applied "
-                                      "whole); any other strategy can"));
-    }
-    for (int j = 0; j < i; ++j) {
-      if (members->Get(j) == member) {
-        return Invalid(at, absl::StrCat(v1::Strategy_Name(member), " is named twice"));
-      }
-    }
+    engine.push_back(EngineStrategy(member).strategy);
   }
-  return absl::OkStatus();
+  bool repeated = false;
+  const int bad = plan::FirstBadAutoMember(engine, &repeated);
+  if (bad < 0) return absl::OkStatus();
+  const std::string name = v1::Strategy_Name(members->Get(bad));
+  return Invalid(absl::StrCat(mpath, "[", bad, "]"),
+                 repeated ? absl::StrCat(name, " is named twice")
+                          : absl::StrCat(name,
+                                         " cannot be a member of STRATEGY_AUTO (pa would "
+                                         "be rec inside it, sep's plans must be applied "
+                                         "whole); any other strategy can"));
 }
 
 // The state_bounds a strategy needs (StrategyInfo::needs_state_bounds: sep's
@@ -194,7 +194,7 @@ absl::Status ValidateStrategyNeeds(absl::string_view path,
     return Invalid(
         Field(path, "state_bounds"),
         absl::StrCat(
-            "STRATEGY_", absl::AsciiStrToUpper(info->name),
+            v1::Strategy_Name(WireStrategy(info->strategy)),
             config.strategy() == v1::STRATEGY_AUTO ? " (a member of STRATEGY_AUTO)" : "",
             " needs state_dim (", config.state_dim(),
             ") intervals (its region is state_bounds x "
@@ -292,9 +292,21 @@ absl::Status ValidateAngles(absl::string_view path, const v1::SessionConfig& con
   return absl::OkStatus();
 }
 
+// A dimension's name: 1-32 letters, digits and _, starting with a letter.
+bool IsDimensionName(absl::string_view name) {
+  return !name.empty() && name.size() <= 32 && absl::ascii_isalpha(name[0]) &&
+         std::all_of(name.begin(), name.end(),
+                     [](char c) { return absl::ascii_isalnum(c) || c == '_'; });
+}
+
+// A unit: at most 16 printable ASCII characters.
+bool IsUnit(absl::string_view unit) {
+  return unit.size() <= 16 && std::all_of(unit.begin(), unit.end(),
+                                          [](char c) { return c >= 0x20 && c < 0x7F; });
+}
+
 // state_names, input_names, state_units, input_units: empty or one per
-// dimension; names identifiers of at most 32 characters, all different; units at
-// most 16 printable ASCII characters.
+// dimension; names all different.
 absl::Status ValidateNames(absl::string_view path, const v1::SessionConfig& config) {
   struct List {
     const char* field;
@@ -308,40 +320,27 @@ absl::Status ValidateNames(absl::string_view path, const v1::SessionConfig& conf
                         {"input_units", config.input_units(), config.input_dim(), false}};
   std::vector<std::string> seen;
   for (const List& list : lists) {
-    if (list.values.empty()) continue;
-    if (list.values.size() != list.dim) {
+    if (!list.values.empty() && list.values.size() != list.dim) {
       return Invalid(Field(path, list.field),
                      absl::StrCat("must be empty or have one entry per dimension (",
                                   list.dim, "), got ", list.values.size()));
     }
     for (int i = 0; i < list.values.size(); ++i) {
       const std::string& v = list.values.Get(i);
-      bool ok = true;
-      for (char c : v) {
-        ok = ok && (list.names ? (absl::ascii_isalnum(c) || c == '_')
-                               : (c >= 0x20 && c < 0x7F));
-      }
-      if (list.names) {
-        ok = ok && !v.empty() && v.size() <= 32 && absl::ascii_isalpha(v[0]);
-      } else {
-        ok = ok && v.size() <= 16;
-      }
-      if (!ok) {
+      if (!(list.names ? IsDimensionName(v) : IsUnit(v))) {
         return Invalid(Indexed(path, list.field, i),
-                       absl::StrCat(list.names
-                                        ? "a name is 1-32 letters, digits and _, "
-                                          "starting with a letter"
-                                        : "a unit is at most 16 printable ASCII "
-                                          "characters",
+                       absl::StrCat(list.names ? "a name is 1-32 letters, digits and _, "
+                                                 "starting with a letter"
+                                               : "a unit is at most 16 printable ASCII "
+                                                 "characters",
                                     ", got \"", v.substr(0, 40), "\""));
       }
-      if (list.names) {
-        if (std::find(seen.begin(), seen.end(), v) != seen.end()) {
-          return Invalid(Indexed(path, list.field, i),
-                         absl::StrCat("\"", v, "\" names two dimensions"));
-        }
-        seen.push_back(v);
+      if (!list.names) continue;
+      if (std::find(seen.begin(), seen.end(), v) != seen.end()) {
+        return Invalid(Indexed(path, list.field, i),
+                       absl::StrCat("\"", v, "\" names two dimensions"));
       }
+      seen.push_back(v);
     }
   }
   return absl::OkStatus();

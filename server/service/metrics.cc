@@ -11,7 +11,6 @@
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
-#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
 #include "absl/synchronization/mutex.h"
@@ -151,12 +150,14 @@ Metrics::Metrics()
       build_and_lock_(std::make_shared<BuildAndLockCollector>()),
       rpc_total_(prometheus::BuildCounter()
                      .Name("excite_rpc_total")
-                     .Help("RPCs finished, by method and code.")
+                     .Help("RPCs finished, by gRPC service, method and code.")
                      .Register(*registry_)),
-      rpc_latency_(prometheus::BuildHistogram()
-                       .Name("excite_rpc_latency_seconds")
-                       .Help("RPC latency as the server sees it, by method and code.")
-                       .Register(*registry_)),
+      rpc_latency_(
+          prometheus::BuildHistogram()
+              .Name("excite_rpc_latency_seconds")
+              .Help(
+                  "RPC latency as the server sees it, by gRPC service, method and code.")
+              .Register(*registry_)),
       store_writes_(prometheus::BuildHistogram()
                         .Name("excite_store_write_seconds")
                         .Help("Durable store writes (fsync included), by operation.")
