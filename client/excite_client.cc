@@ -168,6 +168,14 @@ absl::StatusOr<v1::Session> ExciteClient::GetSession(const std::string& name) {
                options_.default_deadline, Resend::kAfterLostAnswer);
 }
 
+absl::StatusOr<v1::SessionHistory> ExciteClient::GetSessionHistory(
+    const std::string& name) {
+  v1::GetSessionHistoryRequest request;
+  request.set_name(name);
+  return Unary(&v1::ExplorationService::Stub::GetSessionHistory, request, name,
+               options_.default_deadline, Resend::kAfterLostAnswer);
+}
+
 absl::StatusOr<v1::ListSessionsResponse> ExciteClient::ListSessions(
     int page_size, const std::string& page_token, const std::string& filter) {
   v1::ListSessionsRequest request;

@@ -103,6 +103,8 @@ class ExciteClient {
   // With everything CreateSessionRequest holds (display name, labels).
   absl::StatusOr<v1::Session> CreateSession(const v1::CreateSessionRequest& request);
   absl::StatusOr<v1::Session> GetSession(const std::string& name);
+  // The session's plans, batch errors and mean std so far (GetSessionHistory).
+  absl::StatusOr<v1::SessionHistory> GetSessionHistory(const std::string& name);
   // `filter` as in ListSessionsRequest.filter (empty: every session).
   absl::StatusOr<v1::ListSessionsResponse> ListSessions(int page_size,
                                                         const std::string& page_token,

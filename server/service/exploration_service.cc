@@ -182,6 +182,19 @@ grpc::Status ExplorationService::GetSession(grpc::ServerContext* /*context*/,
   });
 }
 
+grpc::Status ExplorationService::GetSessionHistory(
+    grpc::ServerContext* /*context*/, const v1::GetSessionHistoryRequest* request,
+    v1::SessionHistory* response) {
+  return RunRpc("GetSessionHistory", request->name(), [&]() -> absl::Status {
+    absl::StatusOr<std::string> id = ParseSessionName(request->name(), "name");
+    if (!id.ok()) return id.status();
+    absl::StatusOr<session::LearningHistory> history = registry_->History(*id);
+    if (!history.ok()) return history.status();
+    *response = HistoryToProto(*history);
+    return absl::OkStatus();
+  });
+}
+
 grpc::Status ExplorationService::ListSessions(grpc::ServerContext* /*context*/,
                                               const v1::ListSessionsRequest* request,
                                               v1::ListSessionsResponse* response) {

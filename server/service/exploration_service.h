@@ -52,6 +52,9 @@ class ExplorationService final : public v1::ExplorationService::Service {
   grpc::Status GetSession(grpc::ServerContext* context,
                           const v1::GetSessionRequest* request,
                           v1::Session* response) override;
+  grpc::Status GetSessionHistory(grpc::ServerContext* context,
+                                 const v1::GetSessionHistoryRequest* request,
+                                 v1::SessionHistory* response) override;
   grpc::Status ListSessions(grpc::ServerContext* context,
                             const v1::ListSessionsRequest* request,
                             v1::ListSessionsResponse* response) override;

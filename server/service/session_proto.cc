@@ -58,6 +58,37 @@ v1::PlanInputsResponse PlanToProto(const PlanResult& result) {
   return response;
 }
 
+v1::SessionHistory HistoryToProto(const session::LearningHistory& history) {
+  v1::SessionHistory proto;
+  for (const session::PlanRecord& plan : history.plans()) {
+    v1::PlanRecord* out = proto.add_plans();
+    out->set_sample_count(plan.sample_count);
+    out->set_model_version(plan.model_version);
+    *out->mutable_time() =
+        google::protobuf::util::TimeUtil::MillisecondsToTimestamp(plan.unix_ms);
+    out->set_planned_by(WireStrategy(plan.planned_by));
+    out->set_solver_status(ToProto(plan.status));
+    out->set_objective(plan.objective);
+    out->set_wall_time_ms(plan.wall_time_ms);
+    out->set_iterations(plan.iterations);
+  }
+  for (const session::BatchError& batch : history.batch_errors()) {
+    v1::BatchError* out = proto.add_batch_errors();
+    out->set_sample_count(batch.sample_count);
+    out->set_model_version(batch.model_version);
+    out->set_batch_size(batch.batch_size);
+    out->mutable_rmse()->Add(batch.rmse.data(), batch.rmse.data() + batch.rmse.size());
+  }
+  for (const session::UncertaintyRecord& record : history.uncertainty()) {
+    v1::UncertaintyRecord* out = proto.add_uncertainty();
+    out->set_sample_count(record.sample_count);
+    out->set_model_version(record.model_version);
+    out->mutable_mean_std()->Add(record.mean_std.data(),
+                                 record.mean_std.data() + record.mean_std.size());
+  }
+  return proto;
+}
+
 v1::Session SessionToProto(const SessionDescription& description) {
   v1::Session proto;
   proto.set_name(SessionName(description.id));

@@ -22,6 +22,9 @@ v1::Session SessionToProto(const SessionDescription& description);
 // solver's summary.
 v1::PlanInputsResponse PlanToProto(const PlanResult& result);
 
+// The history's series as the wire has them.
+v1::SessionHistory HistoryToProto(const session::LearningHistory& history);
+
 // `matrix` row by row appended to `out`.
 void AppendRowMajor(const Eigen::MatrixXd& matrix,
                     google::protobuf::RepeatedField<double>* out);

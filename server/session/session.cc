@@ -5,7 +5,9 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "common/logging.h"
+#include "server/plan/reference_set.h"
 #include "server/session/memory_budget.h"
 #include "server/session/session_name.h"
 
@@ -20,6 +22,24 @@ constexpr Eigen::Index kPredictChunkEntries = Eigen::Index{1} << 21;
 // summary): an empty one takes 3.1 KiB (bench/load/session_memory.py); planning
 // adds its workspace, which grows with the horizon.
 constexpr int64_t kSessionBytes = int64_t{32} << 10;
+
+// Points of the history's reference set: the mean std of 128 points is within
+// a few percent of the region's average (Halton), at O(128 n^2) per record.
+constexpr int kUncertaintyReferencePoints = 128;
+
+// The uncertainty reference set of `spec`: empty unless it has state bounds.
+Eigen::MatrixXd UncertaintyReference(const SessionSpec& spec) {
+  const plan::PlanOptions& plan = spec.plan;
+  if (plan.state_lower.size() != spec.state_dim ||
+      plan.input_lower.size() != spec.input_dim) {
+    return {};
+  }
+  Eigen::VectorXd lower(spec.state_dim + spec.input_dim);
+  Eigen::VectorXd upper(lower.size());
+  lower << plan.state_lower, plan.input_lower;
+  upper << plan.state_upper, plan.input_upper;
+  return plan::HaltonReferenceSet(lower, upper, kUncertaintyReferencePoints, plan.seed);
+}
 
 // The samples, which must have state_dim `dx` and input_dim `du`, as rows.
 TransitionRows ToRows(const std::vector<store::SampleRecord>& samples, int dx, int du) {
@@ -72,7 +92,8 @@ Session::Session(std::string id, SessionSpec spec, Metadata metadata,
       store_(store),
       fence_(fence),
       model_(std::move(model)),
-      planner_(spec_.plan) {}
+      planner_(spec_.plan),
+      uncertainty_reference_(UncertaintyReference(spec_)) {}
 
 Session::~Session() {
   absl::MutexLock lock(&mu_);
@@ -297,6 +318,52 @@ SessionDescription Session::DescribeStored(const store::SessionListing& listing,
   return description;
 }
 
+LearningHistory Session::History() const {
+  absl::MutexLock lock(&snapshot_mu_);
+  return history_;
+}
+
+void Session::RecordBatchError(const TransitionRows& rows) {
+  if (!model_->fitted() || rows.states.rows() == 0) return;
+  BatchError record;
+  record.sample_count = sample_count_;
+  record.batch_size = rows.states.rows();
+  record.model_version = model_version_;
+  try {
+    record.rmse = OneStepRmse(*model_, rows.states, rows.inputs, rows.next_states,
+                              spec_.model.angle_dims);
+  } catch (const std::exception& e) {
+    Log(LogLevel::kWarning,
+        InternalFromException(absl::StrCat("the one-step error of ", name_), e)
+            .ToString());
+    return;
+  }
+  if (!record.rmse.allFinite()) return;
+  absl::MutexLock lock(&snapshot_mu_);
+  history_.Add(std::move(record));
+}
+
+void Session::RecordUncertaintyIfDue() {
+  if (uncertainty_reference_.rows() == 0 || !model_->fitted()) return;
+  {
+    absl::MutexLock lock(&snapshot_mu_);
+    if (!history_.UncertaintyDue(sample_count_)) return;
+  }
+  UncertaintyRecord record;
+  record.sample_count = sample_count_;
+  record.model_version = model_version_;
+  try {
+    record.mean_std = MeanPredictiveStd(*model_, uncertainty_reference_);
+  } catch (const std::exception& e) {
+    Log(LogLevel::kWarning,
+        InternalFromException(absl::StrCat("the mean std of ", name_), e).ToString());
+    return;
+  }
+  if (!record.mean_std.allFinite()) return;
+  absl::MutexLock lock(&snapshot_mu_);
+  history_.Add(std::move(record));
+}
+
 absl::Status Session::Damage() const {
   absl::MutexLock lock(&snapshot_mu_);
   return damage_;
@@ -400,6 +467,7 @@ absl::StatusOr<AddResult> Session::AddSamples(
       if (n < static_cast<Eigen::Index>(batch.size())) {
         rows = Kept(rows, inserted->stored);  // duplicates are not added again
       }
+      RecordBatchError(rows);
       absl::Status added;
       try {
         added = model_->AddSamples(rows.states, rows.inputs, rows.next_states);
@@ -419,6 +487,7 @@ absl::StatusOr<AddResult> Session::AddSamples(
                                                 added.message()));
       }
     }
+    if (n > 0) RecordUncertaintyIfDue();
     result.stored = inserted->stored_count;
     result.duplicates = inserted->duplicate_count;
     SettleBudget();  // all duplicates: nothing added
@@ -471,6 +540,7 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
   }
   ++model_version_;
   PublishSnapshot();
+  RecordUncertaintyIfDue();
   if (metrics_ != nullptr) {
     metrics_->RecordFit(summary->wall_time_ms / 1000.0, summary->stopped);
   }
@@ -620,6 +690,19 @@ absl::StatusOr<PlanResult> Session::PlanInputs(const Eigen::VectorXd& state,
   result.model_version = model_version_;
   last_plan_ = result;
   PublishSnapshot();
+  {
+    PlanRecord record;
+    record.sample_count = sample_count_;
+    record.model_version = model_version_;
+    record.unix_ms = absl::ToUnixMillis(absl::Now());
+    record.planned_by = result.summary.planned_by;
+    record.status = result.summary.status;
+    record.objective = result.summary.objective;
+    record.wall_time_ms = result.summary.wall_time_ms;
+    record.iterations = result.summary.iterations;
+    absl::MutexLock history_lock(&snapshot_mu_);
+    history_.Add(record);
+  }
   return result;
 }
 

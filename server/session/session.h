@@ -20,6 +20,7 @@
 #include "server/gp/dynamics_model.h"
 #include "server/plan/planner.h"
 #include "server/session/labels.h"
+#include "server/session/learning_history.h"
 #include "server/session/memory_budget.h"
 #include "server/session/metrics_sink.h"
 #include "server/session/session_spec.h"
@@ -209,6 +210,10 @@ class Session {
   SessionSnapshot Snapshot() const;
   // The snapshot with the session's id, config and metadata.
   SessionDescription Describe() const;
+  // What the session learned since it was loaded (plans, the one-step error of
+  // each batch before it was added, the mean predictive std over the region);
+  // kept in memory only. Never waits for a call in progress.
+  LearningHistory History() const;
 
   // One batch of measured transitions (shapes and values already validated):
   // checks that the model can take it (INVALID_ARGUMENT "transitions: ...",
@@ -297,6 +302,11 @@ class Session {
   void PublishSnapshot() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Gives back what AddSamples reserved beyond EstimatedBytes(sample_count_).
   void SettleBudget() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // History: the batch's one-step error by the model as it is (before the batch
+  // is added), and the mean predictive std once due. Only for a fitted model;
+  // a failure is logged, never the call's.
+  void RecordBatchError(const TransitionRows& rows) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  void RecordUncertaintyIfDue() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   const std::string id_;
   const std::string name_;
@@ -324,6 +334,10 @@ class Session {
   // Snapshot, Export and Delete returns it.
   absl::Status damaged_ ABSL_GUARDED_BY(mu_);
 
+  // The region's reference set for the history's mean predictive std: a Halton
+  // set over state_bounds x input_bounds; empty without state bounds.
+  const Eigen::MatrixXd uncertainty_reference_;
+
   std::atomic<bool> stale_{false};
   std::atomic<int> calls_{0};
   // steady_clock nanoseconds at the end of the last call.
@@ -332,6 +346,7 @@ class Session {
   mutable absl::Mutex snapshot_mu_ ABSL_ACQUIRED_AFTER(mu_);
   SessionSnapshot snapshot_ ABSL_GUARDED_BY(snapshot_mu_);
   absl::Status damage_ ABSL_GUARDED_BY(snapshot_mu_);  // damaged_, readable without mu_
+  LearningHistory history_ ABSL_GUARDED_BY(snapshot_mu_);
 };
 
 }  // namespace excite::session

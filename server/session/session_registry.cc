@@ -453,6 +453,26 @@ absl::StatusOr<SessionDescription> SessionRegistry::Describe(const std::string& 
   return Session::DescribeStored(*listing, *options_.format);
 }
 
+absl::StatusOr<LearningHistory> SessionRegistry::History(const std::string& id) {
+  if (!shared_) {
+    absl::StatusOr<std::shared_ptr<Session>> session = Get(id);
+    if (!session.ok()) return session.status();
+    return (*session)->History();
+  }
+  {
+    absl::MutexLock lock(&mu_);
+    auto it = sessions_.find(id);
+    if (it != sessions_.end()) {
+      if (std::shared_ptr<Session> ready = Ready(it->second)) return ready->History();
+    }
+  }
+  if (absl::StatusOr<store::SessionListing> listing = store_->ListSession(id);
+      !listing.ok()) {
+    return listing.status();
+  }
+  return LearningHistory();
+}
+
 absl::Status SessionRegistry::Delete(const std::string& id) {
   absl::StatusOr<std::shared_ptr<Session>> session = Get(id);
   if (!session.ok()) return session.status();

@@ -98,6 +98,10 @@ class SessionRegistry {
   // else (a shared store) the stored one (Session::DescribeStored), without
   // taking the lease: reading a session never moves it. NOT_FOUND if unknown.
   absl::StatusOr<SessionDescription> Describe(const std::string& id);
+  // The session's learning history (Session::History) if it is served here; a
+  // session of a shared store served by another replica (or none) has an empty
+  // one here. Never takes the lease. NOT_FOUND if unknown.
+  absl::StatusOr<LearningHistory> History(const std::string& id);
 
   // Deletes the session and its samples (store first). NOT_FOUND if unknown.
   absl::Status Delete(const std::string& id);

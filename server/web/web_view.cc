@@ -211,6 +211,16 @@ absl::StatusOr<std::unique_ptr<WebView>> WebView::Start(
     if (!status.ok()) return fail(res, status);
     SendMessage(res, response);
   });
+  http.Get(R"(/api/sessions/([a-z0-9-]{1,63})/history)",
+           [stub, fail](const httplib::Request& req, httplib::Response& res) {
+             v1::GetSessionHistoryRequest request;
+             request.set_name(absl::StrCat("sessions/", req.matches[1].str()));
+             v1::SessionHistory response;
+             const grpc::Status status =
+                 stub->GetSessionHistory(CallContext().get(), request, &response);
+             if (!status.ok()) return fail(res, status);
+             SendMessage(res, response);
+           });
   http.Get(R"(/api/sessions/([a-z0-9-]{1,63})/archive)",
            [stub, fail](const httplib::Request& req, httplib::Response& res) {
              v1::ExportSessionRequest request;

@@ -34,6 +34,7 @@ struct WebViewOptions {
 // `channel` (the server's in-process channel):
 //   GET  /api/sessions[?filter=F]      ListSessions (every page)
 //   GET  /api/sessions/ID              GetSession (with the last plan)
+//   GET  /api/sessions/ID/history      GetSessionHistory (plans, learning curve)
 //   GET  /api/sessions/ID/archive      ExportSession (samples with timestamps)
 //   POST /api/sessions/ID/predict      Predict; body: a PredictRequest as JSON
 // in protobuf's JSON mapping. Errors: {"code": "NOT_FOUND", "message": ...} with

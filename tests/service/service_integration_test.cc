@@ -987,5 +987,89 @@ TEST_F(ServiceTest, AddDataLatency) {
   EXPECT_EQ(client_->GetSession(name)->sample_count(), 50);
 }
 
+// GetSessionHistory: every plan, the one-step error of each batch as the model
+// predicted it before the batch (checked against Predict called just before),
+// and the mean std over the region, which fixed hyperparameters can only lower.
+TEST_F(ServiceTest, SessionHistoryRecordsPlansBatchErrorsAndUncertainty) {
+  const std::string name =
+      Create("history", testing::PendulumFixedKernelConfig(
+                            testing::PendulumHyperparameters(0.5, {1, 1, 1}),
+                            testing::PendulumHyperparameters(4.0, {1, 1, 1})))
+          .name();
+  Add(name, {PendulumTransitions(30, 0, 3)});
+  // The model is fitted at its first use: no batch was scored before.
+  absl::StatusOr<v1::PlanInputsResponse> plan = client_->PlanInputs(name, {0.1, -0.2});
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  absl::StatusOr<v1::SessionHistory> history = client_->GetSessionHistory(name);
+  ASSERT_TRUE(history.ok()) << history.status();
+  ASSERT_EQ(history->plans_size(), 1);
+  EXPECT_EQ(history->plans(0).sample_count(), 30);
+  EXPECT_EQ(history->plans(0).model_version(), plan->model_version());
+  EXPECT_EQ(history->plans(0).objective(), plan->objective());
+  EXPECT_EQ(history->plans(0).planned_by(), v1::STRATEGY_REC);
+  EXPECT_EQ(history->plans(0).solver_status(), plan->solver_status());
+  EXPECT_GT(history->plans(0).time().seconds(), 1'700'000'000);
+  EXPECT_EQ(history->batch_errors_size(), 0);
+  ASSERT_EQ(history->uncertainty_size(), 1);
+  const v1::UncertaintyRecord first = history->uncertainty(0);
+  ASSERT_EQ(first.mean_std_size(), 2);
+
+  // The next batch, predicted by hand first.
+  const std::vector<v1::Transition> batch = PendulumTransitions(6, 30, 11);
+  v1::PredictRequest predict;
+  predict.set_session(name);
+  for (const v1::Transition& t : batch) {
+    predict.add_inputs(t.state(0));
+    predict.add_inputs(t.state(1));
+    predict.add_inputs(t.input(0));
+  }
+  absl::StatusOr<v1::PredictResponse> predicted = client_->Predict(predict);
+  ASSERT_TRUE(predicted.ok()) << predicted.status();
+  double squares[2] = {0, 0};
+  for (size_t i = 0; i < batch.size(); ++i) {
+    for (int d = 0; d < 2; ++d) {
+      squares[d] += std::pow(batch[i].next_state(d) - predicted->mean(2 * i + d), 2);
+    }
+  }
+  Add(name, {batch});
+  Add(name, {batch});  // duplicates only: not scored again
+  history = client_->GetSessionHistory(name);
+  ASSERT_TRUE(history.ok()) << history.status();
+  ASSERT_EQ(history->batch_errors_size(), 1);
+  const v1::BatchError& error = history->batch_errors(0);
+  EXPECT_EQ(error.sample_count(), 30);
+  EXPECT_EQ(error.batch_size(), 6);
+  EXPECT_EQ(error.model_version(), predicted->model_version());
+  ASSERT_EQ(error.rmse_size(), 2);
+  for (int d = 0; d < 2; ++d) {
+    const double expected = std::sqrt(squares[d] / 6);
+    EXPECT_NEAR(error.rmse(d), expected, 1e-12 * expected) << d;
+  }
+  ASSERT_EQ(history->uncertainty_size(), 2);
+  EXPECT_EQ(history->uncertainty(1).sample_count(), 36);
+  for (int d = 0; d < 2; ++d) {
+    EXPECT_GT(history->uncertainty(1).mean_std(d), 0.0);
+    EXPECT_LT(history->uncertainty(1).mean_std(d), first.mean_std(d)) << d;
+  }
+
+  ASSERT_TRUE(client_->PlanInputs(name, {0.1, -0.2}).ok());
+  history = client_->GetSessionHistory(name);
+  ASSERT_TRUE(history.ok()) << history.status();
+  ASSERT_EQ(history->plans_size(), 2);
+  EXPECT_EQ(history->plans(1).sample_count(), 36);
+
+  ExpectStatus(client_->GetSessionHistory("sessions/no-such").status(),
+               absl::StatusCode::kNotFound, "no-such");
+  ExpectStatus(client_->GetSessionHistory("history").status(),
+               absl::StatusCode::kInvalidArgument, "name");
+  // Kept in memory: a restart starts it again.
+  StopServer();
+  StartServer();
+  history = client_->GetSessionHistory(name);
+  ASSERT_TRUE(history.ok()) << history.status();
+  EXPECT_EQ(history->plans_size(), 0);
+  EXPECT_EQ(history->batch_errors_size(), 0);
+}
+
 }  // namespace
 }  // namespace excite::service
