@@ -238,6 +238,28 @@ def test_plan_respects_bounds_and_strategy(client, strategy):
     session.delete()
 
 
+def test_history_holds_plans_and_the_learning_curve(client):
+    session = client.create_session(linear_config())
+    x, u, x_next, _, _ = linear_data(40, seed=6)
+    session.add(x[:20], u[:20], x_next[:20])
+    plan = session.plan([0.1, 0.2])
+    # Predicted by hand before the batch is added: what the history scores.
+    predicted = session.predict(np.hstack([x[20:], u[20:]]))
+    session.add(x[20:], u[20:], x_next[20:])
+    history = session.history()
+    assert isinstance(history, excite.History)
+    np.testing.assert_array_equal(history.plan_samples, [20])
+    assert history.plan_objectives[0] == plan.objective
+    assert history.plan_planned_by == ("rec",)
+    assert history.plan_solver_status == (plan.solver_status,)
+    np.testing.assert_array_equal(history.error_samples, [20])
+    expected = np.sqrt(np.mean((x_next[20:] - predicted.mean) ** 2, axis=0))
+    np.testing.assert_allclose(history.error_rmse, [expected], rtol=1e-9)
+    assert history.mean_std.shape == (len(history.std_samples), 2)
+    assert list(history.std_samples) == [20, 40] and np.all(history.mean_std > 0)
+    session.delete()
+
+
 def test_model_free_strategy_plans_without_data_or_predictions(client):
     session = client.create_session(linear_config(strategy="random", horizon=6))
     plan = session.plan([0.0, 0.0])  # no data needed

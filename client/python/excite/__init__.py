@@ -16,7 +16,7 @@ place, by ``/usr/bin/python3 client/python/excite/codegen.py``. Importing never
 generates anything. See client/python/README.md.
 """
 
-from excite._common import AddResult, Plan, Prediction, Samples, session_config
+from excite._common import AddResult, History, Plan, Prediction, Samples, session_config
 from excite._pb import config_pb, pb
 from excite.client import SESSION_HEADER, Client, Session, TransitionStream
 from excite.errors import (Aborted, AlreadyExists, Cancelled, DataLoss, DeadlineExceeded,
@@ -48,6 +48,7 @@ __all__ = [
     "Unimplemented",
     "Unknown",
     "field_violations",
+    "History",
     "Plan",
     "Prediction",
     "Samples",

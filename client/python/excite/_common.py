@@ -101,6 +101,29 @@ class AddResult:
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
+class History:
+    """What a session learned as it went (GetSessionHistory), oldest first, as
+    arrays; the server keeps it in memory since it loaded the session.
+
+    Plans: ``plan_samples`` (samples each plan was made with), ``plan_objectives``,
+    ``plan_wall_time_ms``, ``plan_solver_status`` and ``plan_planned_by`` (short
+    strategy names). Learning curve without ground truth: ``error_samples`` and
+    ``error_rmse`` (k, state_dim), the one-step RMSE of each batch predicted
+    before it was added; ``std_samples`` and ``mean_std`` (k, state_dim), the
+    mean predictive std over the region (only with state_bounds)."""
+
+    plan_samples: npt.NDArray[np.int64]
+    plan_objectives: FloatArray
+    plan_wall_time_ms: FloatArray
+    plan_solver_status: Tuple[str, ...]
+    plan_planned_by: Tuple[str, ...]
+    error_samples: npt.NDArray[np.int64]
+    error_rmse: FloatArray
+    std_samples: npt.NDArray[np.int64]
+    mean_std: FloatArray
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
 class Samples:
     """A session's stored transitions in sequence order (from ExportSession):
     ``states`` and ``next_states`` (n, state_dim), ``inputs`` (n, input_dim),
@@ -471,8 +494,32 @@ def plan(reply: pb.PlanInputsResponse, state_dim: int, input_dim: int) -> Plan:
         iterations=int(reply.iterations),
         wall_time_ms=float(reply.wall_time_ms),
         model_version=int(reply.model_version),
-        planned_by=(config_pb.Strategy.Name(reply.planned_by)[len("STRATEGY_"):].lower()
-                    if reply.planned_by else ""),
+        planned_by=_short_strategy(reply.planned_by),
+    )
+
+
+def _short_strategy(value: int) -> str:
+    return config_pb.Strategy.Name(value)[len("STRATEGY_"):].lower() if value else ""
+
+
+def history(reply: pb.SessionHistory, state_dim: int) -> History:
+    def ints(values: Iterable[int]) -> npt.NDArray[np.int64]:
+        return np.asarray(list(values), dtype=np.int64)
+
+    def per_dimension(rows: Iterable[Iterable[float]]) -> FloatArray:
+        values = [v for row in rows for v in row]
+        return np.asarray(values, dtype=np.float64).reshape(-1, state_dim)
+
+    return History(
+        plan_samples=ints(p.sample_count for p in reply.plans),
+        plan_objectives=np.asarray([p.objective for p in reply.plans], dtype=np.float64),
+        plan_wall_time_ms=np.asarray([p.wall_time_ms for p in reply.plans], dtype=np.float64),
+        plan_solver_status=tuple(pb.SolverStatus.Name(p.solver_status) for p in reply.plans),
+        plan_planned_by=tuple(_short_strategy(p.planned_by) for p in reply.plans),
+        error_samples=ints(e.sample_count for e in reply.batch_errors),
+        error_rmse=per_dimension(e.rmse for e in reply.batch_errors),
+        std_samples=ints(u.sample_count for u in reply.uncertainty),
+        mean_std=per_dimension(u.mean_std for u in reply.uncertainty),
     )
 
 

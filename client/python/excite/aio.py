@@ -32,7 +32,8 @@ import grpc.aio
 import numpy.typing as npt
 
 from excite import _common
-from excite._common import AddResult, ArchiveLike, ConfigLike, Plan, Prediction, Samples
+from excite._common import (AddResult, ArchiveLike, ConfigLike, History, Plan, Prediction,
+                            Samples)
 from excite._pb import config_pb, pb, pb_grpc
 from excite.errors import AioCheckedStub
 
@@ -231,9 +232,16 @@ class Session(_common.SessionView):
             request, timeout=self.client.plan_timeout_s, metadata=self.metadata)
         return _common.plan(reply, self.state_dim, self.input_dim)
 
+    async def history(self) -> History:
+        """The plans and learning curve so far (see :meth:`excite.Session.history`)."""
+        reply = await self.client._calls.GetSessionHistory(
+            pb.GetSessionHistoryRequest(name=self.name), timeout=self.client.timeout_s,
+            metadata=self.metadata)
+        return _common.history(reply, self.state_dim)
+
     async def samples(self) -> Samples:
         """Every stored transition as arrays (see :meth:`excite.Session.samples`)."""
         return _common.samples(await self.client.export_session(self.name))
 
 
-__all__ = ["Client", "Session", "AddResult", "Plan", "Prediction", "Samples"]
+__all__ = ["Client", "Session", "AddResult", "History", "Plan", "Prediction", "Samples"]

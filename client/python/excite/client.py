@@ -25,6 +25,7 @@ from excite._common import (  # noqa: F401  (re-exported: excite.client.X still 
     AddResult,
     ArchiveLike,
     ConfigLike,
+    History,
     Plan,
     Prediction,
     Samples,
@@ -292,6 +293,13 @@ class Session(_common.SessionView):
         reply = self.client.stub.PlanInputs(request, timeout=self.client.plan_timeout_s,
                                             metadata=self.metadata)
         return _common.plan(reply, self.state_dim, self.input_dim)
+
+    def history(self) -> History:
+        """The session's plans and learning curve so far (:class:`History`)."""
+        reply = self.client.stub.GetSessionHistory(
+            pb.GetSessionHistoryRequest(name=self.name), timeout=self.client.timeout_s,
+            metadata=self.metadata)
+        return _common.history(reply, self.state_dim)
 
     def samples(self) -> Samples:
         """Every stored transition, in sequence order, as numpy arrays
