@@ -750,6 +750,18 @@ std::vector<double> DynamicsModel::log_marginal_likelihoods() const {
   return out;
 }
 
+std::vector<BoundHits> DynamicsModel::bound_hits() const {
+  const State& s = *state_;
+  std::vector<BoundHits> hits;
+  if (!s.fitted || !s.options.fit_kernel) return hits;
+  for (int j = 0; j < s.state_dim; ++j) {
+    hits.push_back(
+        HitBounds(ToNormalised(s.data_hyperparameters[j], s.half_width, s.out_std(j)),
+                  s.options.fit));
+  }
+  return hits;
+}
+
 bool DynamicsModel::sparse() const { return state_->sparse; }
 
 std::vector<int> DynamicsModel::inducing_counts() const {

@@ -189,6 +189,9 @@ class DynamicsModel final : public DynamicsPredictor {
   // (evenly spread) at the last Refit() or Rebuild(). Empty before the first
   // Refit().
   std::vector<double> log_marginal_likelihoods() const;
+  // Per output, what the last fit left at a bound of options.fit (HitBounds);
+  // empty unless fitted with fit_kernel.
+  std::vector<BoundHits> bound_hits() const;
   // True when the outputs are sparse GPs.
   bool sparse() const;
   // Inducing points of each output (empty unless sparse()).

@@ -311,4 +311,21 @@ absl::StatusOr<FitSummary> FitHyperparameters(
   return summary;
 }
 
+BoundHits HitBounds(const Hyperparameters& normalised, const FitOptions& options) {
+  const auto at_bound = [](double value, double lower, double upper) {
+    return std::abs(std::log(value / lower)) < 0.01 ||
+           std::abs(std::log(value / upper)) < 0.01;
+  };
+  BoundHits hits;
+  for (Eigen::Index i = 0; i < normalised.lengthscales.size(); ++i) {
+    if (at_bound(normalised.lengthscales(i), options.min_lengthscale,
+                 options.max_lengthscale)) {
+      hits.lengthscales.push_back(static_cast<int>(i));
+    }
+  }
+  hits.signal_variance = at_bound(normalised.signal_variance, options.min_signal_variance,
+                                  options.max_signal_variance);
+  return hits;
+}
+
 }  // namespace excite::gp

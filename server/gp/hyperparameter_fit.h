@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "server/gp/hyperparameters.h"
@@ -84,6 +85,15 @@ struct FitSummary {
   // The stop callback ended the fit early; the model holds the best point seen.
   bool stopped = false;
 };
+
+// Which hyperparameters a fit left at a bound of `options` (normalised units,
+// within 1 % in log scale): the data did not pin them; the fit would have gone
+// further.
+struct BoundHits {
+  std::vector<int> lengthscales;  // indices into Hyperparameters::lengthscales
+  bool signal_variance = false;
+};
+BoundHits HitBounds(const Hyperparameters& normalised, const FitOptions& options);
 
 // Polled before every objective evaluation (each O(n^3)); true ends the fit.
 // May be called from several threads at once (DynamicsModel fits outputs in

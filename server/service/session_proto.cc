@@ -112,6 +112,9 @@ v1::Session SessionToProto(const SessionDescription& description) {
     }
     out->set_prior_mean(output.prior_mean);
     out->set_inducing_points(output.inducing_points);
+    out->mutable_lengthscales_at_bound()->Add(output.lengthscales_at_bound.begin(),
+                                              output.lengthscales_at_bound.end());
+    out->set_signal_variance_at_bound(output.signal_variance_at_bound);
   }
   if (snapshot.last_plan.has_value()) {
     *proto.mutable_last_plan() = PlanToProto(*snapshot.last_plan);

@@ -382,12 +382,17 @@ void Session::PublishSnapshot() {
     const std::vector<double> lml = model_->log_marginal_likelihoods();
     const std::vector<int> inducing = model_->inducing_counts();
     const Eigen::VectorXd prior_means = model_->prior_means();
+    const std::vector<gp::BoundHits> hits = model_->bound_hits();
     for (size_t i = 0; i < hyperparameters.size(); ++i) {
       OutputSnapshot output;
       output.hyperparameters = std::move(hyperparameters[i]);
       if (i < lml.size()) output.log_marginal_likelihood = lml[i];
       output.prior_mean = prior_means(static_cast<Eigen::Index>(i));
       if (i < inducing.size()) output.inducing_points = inducing[i];
+      if (i < hits.size()) {
+        output.lengthscales_at_bound = hits[i].lengthscales;
+        output.signal_variance_at_bound = hits[i].signal_variance;
+      }
       snapshot.outputs.push_back(std::move(output));
     }
   }

@@ -69,6 +69,9 @@ struct OutputSnapshot {
   std::optional<double> log_marginal_likelihood;
   double prior_mean = 0.0;
   int inducing_points = 0;  // 0 while the output is an exact GP
+  // What the last fit left at a bound (gp::HitBounds); empty for fixed ones.
+  std::vector<int> lengthscales_at_bound;
+  bool signal_variance_at_bound = false;
 };
 
 // What a session reports besides its config and metadata.

@@ -205,6 +205,38 @@ TEST(DynamicsModelTest, FitLearnsPendulumAndIsDeterministic) {
   EXPECT_TRUE((var.array() > 0).all());
 }
 
+// bound_hits() names the lengthscales a fit left at a bound: recomputed here
+// from the data-unit lengthscales and the fixed half-widths (3, 6, 2).
+TEST(DynamicsModelTest, BoundHitsAreTheLengthscalesAtTheirBounds) {
+  DynamicsModelOptions o = BaseOptions(Target::kDelta);
+  o.fit.seed = 3;
+  absl::StatusOr<DynamicsModel> model = DynamicsModel::Create(o);
+  ASSERT_TRUE(model.ok());
+  EXPECT_TRUE(model->bound_hits().empty());  // not fitted
+  const Transitions d = MakeTransitions(60, 9);
+  ASSERT_TRUE(model->AddSamples(d.x, d.u, d.next).ok());
+  ASSERT_TRUE(model->Refit().ok());
+  const std::vector<BoundHits> hits = model->bound_hits();
+  ASSERT_EQ(hits.size(), 2u);
+  const Eigen::Vector3d half_width(3.0, 6.0, 2.0);
+  int at_bound = 0;
+  for (int j = 0; j < 2; ++j) {
+    std::vector<int> expected;
+    for (int i = 0; i < 3; ++i) {
+      const double l = model->hyperparameters()[j].lengthscales(i) / half_width(i);
+      if (std::abs(std::log(l / o.fit.min_lengthscale)) < 0.01 ||
+          std::abs(std::log(l / o.fit.max_lengthscale)) < 0.01) {
+        expected.push_back(i);
+      }
+    }
+    EXPECT_EQ(hits[j].lengthscales, expected) << j;
+    at_bound += static_cast<int>(expected.size());
+  }
+  // The angle's update does not depend on the torque within a step of 60
+  // samples' resolution: that lengthscale is parked at the upper bound.
+  EXPECT_GE(at_bound, 1);
+}
+
 // A model restored from the same data and the saved hyperparameters (seeded with
 // the count they were fitted on, then rebuilt without a fit) predicts what the
 // original predicted after samples were appended past its fit.

@@ -281,5 +281,17 @@ TEST(HyperparameterFitTest, RejectsBadOptions) {
       absl::StatusCode::kInvalidArgument);
 }
 
+TEST(HitBoundsTest, FlagsValuesWithinOnePercentOfABound) {
+  FitOptions options;  // lengthscales [0.05, 50], signal variance [0.01, 100]
+  Hyperparameters h;
+  h.lengthscales = Eigen::Vector4d(0.05 * 1.009, 0.05 * 1.011, 50.0 / 1.009, 3.0);
+  h.signal_variance = 100.0;
+  BoundHits hits = HitBounds(h, options);
+  EXPECT_EQ(hits.lengthscales, (std::vector<int>{0, 2}));
+  EXPECT_TRUE(hits.signal_variance);
+  h.signal_variance = 0.5;
+  EXPECT_FALSE(HitBounds(h, options).signal_variance);
+}
+
 }  // namespace
 }  // namespace excite::gp
