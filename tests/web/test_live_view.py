@@ -1,15 +1,17 @@
 """The live view (excite-server --web_listen) in a real browser: headless Chromium
 driven by Selenium (Debian's chromium, chromium-driver, python3-selenium) against
 the real server while excite-sim explores the pendulum with `rec`. The page must
-load, list the running session, show it (samples, visited states with the plan's
-predicted trajectory, the std map, the objective, the hyperparameters) and update
-as samples arrive; the API must refuse calls without the token.
+load, show the running session without a click, draw it with the config's names
+and units, round ticks, the region, a colour bar, the learning curve and plan
+history the server keeps, flag lengthscales at a bound, follow the window's width
+and update as samples arrive; the API must refuse calls without the token.
 
 Run: ctest -R web_live_view (label web), or with EXCITE_SERVER_BIN and
 EXCITE_SIM_BIN set: /usr/bin/python3 -m pytest tests/web/test_live_view.py
 """
 
 import json
+import math
 import os
 import pathlib
 import re
@@ -124,42 +126,129 @@ def number(driver, element_id):
     return int(text) if text.isdigit() else -1
 
 
+def data(driver, canvas_id, key):
+    """A canvas's data-KEY attribute (what the page drew), JSON-decoded."""
+    value = driver.find_element(By.ID, canvas_id).get_attribute(f"data-{key}")
+    return None if value is None else json.loads(value) if value[:1] in "[{0123456789-" else value
+
+
+def nice(ticks):
+    """Evenly spaced ticks at multiples of 1, 2 or 5 times a power of ten."""
+    if len(ticks) < 2:
+        return False
+    step = ticks[1] - ticks[0]
+    mantissa = step / 10 ** math.floor(math.log10(step) + 1e-9)
+    return (any(abs(mantissa - m) < 1e-6 for m in (1, 2, 5)) and
+            all(abs(b - a - step) < 1e-6 * step for a, b in zip(ticks, ticks[1:])) and
+            all(abs(t / step - round(t / step)) < 1e-6 for t in ticks))
+
+
+def nice_log(ticks):
+    return all(abs(t / 10 ** math.floor(math.log10(t) + 1e-9) - round(
+        t / 10 ** math.floor(math.log10(t) + 1e-9))) < 1e-6 for t in ticks)
+
+
+PLOTS = ("plot-curve", "plot-states", "plot-std", "plot-objective", "plot-samples")
+
+
 def test_the_page_shows_the_running_session_and_updates(exploring, browser):
     base, work = exploring
+    # No session in the address: the page shows the newest one without a click.
     browser.get(f"{base}/#token={TOKEN}")
-    # The list is redrawn at every refresh: read and click it in one script.
-    listed = wait_for("the session in the list", lambda: browser.execute_script(
-        "const li = document.querySelector('#sessions li[data-id]');"
-        "if (!li) return null; li.click(); return [li.dataset.id, li.textContent];"))
-    session_id, text = listed
-    assert "rec" in text
-    # The token left the address bar (it stays in the tab's sessionStorage).
-    assert TOKEN not in browser.current_url
-    assert browser.current_url.endswith(f"#session={session_id}")
+    session_id = wait_for("a session chosen", lambda: (
+        lambda m: m.group(1) if m else None)(re.search(r"#session=([a-z0-9-]+)$",
+                                                      browser.current_url)))
+    assert TOKEN not in browser.current_url  # it stays in the tab's sessionStorage
+    wait_for("the session shown", browser.find_element(By.ID, "session").is_displayed)
+    listed = browser.find_element(By.CSS_SELECTOR, f'#sessions li[data-id="{session_id}"]')
+    assert "rec" in listed.text and "selected" in listed.get_attribute("class")
     wait_for("samples on the page", lambda: number(browser, "sample-count") > 0)
     wait_for("a plan with its objective",
              lambda: "objective" in browser.find_element(By.ID, "plan-facts").text)
-    wait_for("the fitted hyperparameters", lambda: len(
-        browser.find_elements(By.CSS_SELECTOR, "#hyperparameters tbody tr")) == 2)
-    rows = browser.find_elements(By.CSS_SELECTOR, "#hyperparameters tbody tr")
-    assert rows[0].text.startswith("x0") and rows[1].text.startswith("x1")
-    wait_for("the std map", lambda: " to " in browser.find_element(By.ID, "std-range").text)
+    assert "planned by rec" in browser.find_element(By.ID, "plan-facts").text
+    assert "tau = " in browser.find_element(By.ID, "plan-facts").text
 
     # Updates: the count grows while the plant explores, without a reload.
     first = number(browser, "sample-count")
     wait_for("more samples", lambda: number(browser, "sample-count") > first)
-    wait_for("the plots drawn", lambda: all(
-        painted(browser, c) > 2000
-        for c in ("plot-samples", "plot-states", "plot-std", "plot-objective")))
-    # The std map is a grid of coloured cells over most of its plot area.
-    assert painted(browser, "plot-std") > 0.5 * 420 * 260
+    wait_for("every plot drawn", lambda: all(painted(browser, c) > 2000 for c in PLOTS))
+    wait_for("a learning curve with both series", lambda: (
+        int(data(browser, "plot-curve", "errors") or 0) >= 3 and
+        int(data(browser, "plot-curve", "uncertainty") or 0) >= 2))
+
+    # Names and units from the config on the axes, the selectors and the table.
+    assert data(browser, "plot-states", "xlabel") == "theta [rad]"
+    assert data(browser, "plot-states", "ylabel") == "theta_dot [rad/s]"
+    assert data(browser, "plot-samples", "xlabel") == "seconds since the first sample"
+    options = [o.text for o in browser.find_elements(By.CSS_SELECTOR, "#dim-x option")]
+    assert options == ["theta [rad]", "theta_dot [rad/s]", "tau [N m]"]
+    # Ticks at round numbers on every linear axis, decades on the curve's log axis.
+    for canvas in PLOTS:
+        assert nice(data(browser, canvas, "xticks")), (canvas, data(browser, canvas, "xticks"))
+        if canvas != "plot-curve":
+            assert nice(data(browser, canvas, "yticks")), (canvas, data(browser, canvas, "yticks"))
+    assert nice_log(data(browser, "plot-curve", "yticks"))
+    # Time starts at 0 (no negative padding).
+    assert data(browser, "plot-samples", "xrange")[0] == 0
+    # The angle is drawn on the circle and the region (one turn, |theta_dot| <= 8) is drawn.
+    xr = data(browser, "plot-states", "xrange")
+    assert -4 <= xr[0] <= -math.pi and math.pi <= xr[1] <= 4, xr
+    assert "region" in data(browser, "plot-states", "region")
+    assert "region" in data(browser, "plot-std", "region")
+    # The std map: the same axes as the visited states, and a colour bar.
+    wait_for("the std map on the states' axes", lambda: (
+        data(browser, "plot-std", "xrange") == data(browser, "plot-states", "xrange") and
+        data(browser, "plot-std", "yrange") == data(browser, "plot-states", "yrange")))
+    low, high = data(browser, "plot-std", "colorbar")
+    assert 0 <= low < high
+    assert "std of theta [rad]" in browser.find_element(By.ID, "std-range").text
+    # The plan history comes from the server, not from what this tab saw.
+    status, hist = get(f"{base}/api/sessions/{session_id}/history", TOKEN)
+    assert status == 200 and len(hist["plans"]) >= 1 and len(hist["batch_errors"]) >= 3
+    assert 1 <= int(data(browser, "plot-objective", "series")) <= len(hist["plans"])
+
+    # Lengthscales labelled by kernel input (the angle's sine and cosine) and
+    # flagged exactly where the server says the fit left them at a bound.
+    wait_for("the fitted hyperparameters", lambda: len(
+        browser.find_elements(By.CSS_SELECTOR, "#hyperparameters tbody tr")) == 2)
+    header = [th.text for th in browser.find_elements(By.CSS_SELECTOR, "#hyperparameters th")]
+    assert header[3:7] == ["lengthscale sin theta", "lengthscale cos theta",
+                           "lengthscale theta_dot", "lengthscale tau"], header
+    rows = browser.find_elements(By.CSS_SELECTOR, "#hyperparameters tbody tr")
+    assert rows[0].text.startswith("theta [rad]") and rows[1].text.startswith("theta_dot")
+    for _ in range(3):  # the page and the API read at slightly different times
+        flagged = browser.execute_script(
+            "return [...document.querySelectorAll('#hyperparameters tbody tr')].map("
+            "r => [...r.cells].map((c, k) => c.classList.contains('at-bound') && k >= 3 ? "
+            "k - 3 : -1).filter(k => k >= 0));")
+        status, session = get(f"{base}/api/sessions/{session_id}", TOKEN)
+        expected = [[int(k) for k in o.get("lengthscales_at_bound", [])]
+                    for o in session["outputs"]]
+        if flagged == expected:
+            break
+        time.sleep(1.6)
+    assert flagged == expected
+
+    # Canvases follow their box (the grid's column) in device pixels.
+    size = ("const c = document.getElementById('plot-states');"
+            "return [c.width, Math.round(Math.max(200, c.clientWidth) * devicePixelRatio)];")
+    width, box = browser.execute_script(size)
+    assert width == box
+    browser.set_window_size(1000, 1000)  # two columns become one
+    wait_for("the canvas resized to its new box", lambda: (
+        lambda w: w[0] == w[1] and w[0] != width)(browser.execute_script(size)))
+    browser.set_window_size(1400, 1000)
+
     # What the page shows agrees with the API.
     status, session = get(f"{base}/api/sessions/{session_id}", TOKEN)
     assert status == 200 and int(session["sample_count"]) >= number(browser, "sample-count")
     assert session["config"]["strategy"] == "STRATEGY_REC"
     errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
     assert not errors, errors
+    wait_for("the plots drawn again", lambda: all(painted(browser, c) > 2000 for c in PLOTS))
     browser.save_screenshot(str(work / "live-view.png"))
+    if os.environ.get("EXCITE_SCREENSHOT"):
+        browser.save_screenshot(os.environ["EXCITE_SCREENSHOT"])
 
 
 def test_without_the_token_the_page_asks_for_it(exploring, browser):
