@@ -12,6 +12,8 @@ namespace excite::service {
 
 // Parses protobuf text format into `message`: INVALID_ARGUMENT with every error
 // as "line:column: message" (an unknown enum value also lists the valid ones).
+// Enum values may also be written by their short names in any case, as
+// everywhere else in excite: "strategy: rec" is "strategy: STRATEGY_REC".
 // The one text-format parser of the project (config files, excite-sim, the CLI).
 absl::Status ParseTextProto(absl::string_view text, google::protobuf::Message* message);
 

@@ -5,6 +5,7 @@
 #include <limits>
 #include <string>
 
+#include "excite/v1/sim_config.pb.h"
 #include "gmock/gmock.h"
 #include "google/protobuf/text_format.h"
 #include "gtest/gtest.h"
@@ -431,8 +432,39 @@ TEST(ConfigTextTest, UnknownEnumValuesListTheValidOnes) {
   absl::StatusOr<v1::SessionConfig> config =
       ParseSessionConfigText("state_dim: 2\nstrategy: STRATEGY_BOGUS\n");
   EXPECT_THAT(std::string(config.status().message()),
-              HasSubstr("\"STRATEGY_BOGUS\" for field \"strategy\". Valid: STRATEGY_REC, "
-                        "STRATEGY_PA,"));
+              HasSubstr("\"STRATEGY_BOGUS\" for field \"strategy\". Valid: rec, pa, "));
+  EXPECT_THAT(std::string(config.status().message()),
+              HasSubstr("auto (any case, with or without STRATEGY_)."));
+}
+
+// As everywhere else, an enum value may be written by its short name in any
+// case, in plain fields, lists and nested messages; nothing else changes.
+TEST(ConfigTextTest, EnumValuesMayBeShortNamesInAnyCase) {
+  absl::StatusOr<v1::SessionConfig> config = ParseSessionConfigText(
+      "state_dim: 2  # strategy: nope\n"
+      "\tstrategy:auto target: Next\n"
+      "name_of_nothing_else: 1\n");
+  EXPECT_THAT(std::string(config.status().message()), HasSubstr("3:"));  // still an error
+  config = ParseSessionConfigText(
+      "state_dim: 2  # strategy: nope\n"
+      "\tstrategy:auto target: Next\n"
+      "auto { members: [Rec, STRATEGY_random, strategy_ROI] }\n"
+      "sep { }  roi { reference_points: 9 }\n");
+  ASSERT_TRUE(config.ok()) << config.status();
+  EXPECT_EQ(config->strategy(), v1::STRATEGY_AUTO);
+  EXPECT_EQ(config->target(), v1::TARGET_NEXT);
+  ASSERT_EQ(config->auto_().members_size(), 3);
+  EXPECT_EQ(config->auto_().members(0), v1::STRATEGY_REC);
+  EXPECT_EQ(config->auto_().members(1), v1::STRATEGY_RANDOM);
+  EXPECT_EQ(config->auto_().members(2), v1::STRATEGY_ROI);
+  // A plant's file too (the session nested in a SimConfig).
+  v1::SimConfig sim;
+  ASSERT_TRUE(
+      ParseTextProto("system: \"x\" session { strategy: optimistic }", &sim).ok());
+  EXPECT_EQ(sim.session().strategy(), v1::STRATEGY_OPTIMISTIC);
+  // Strings are not touched.
+  ASSERT_TRUE(ParseTextProto("system: \"rec\"", &sim).ok());
+  EXPECT_EQ(sim.system(), "rec");
 }
 
 TEST(ConfigTextTest, AConfigFileMayBeAPlantsSimConfig) {
@@ -447,7 +479,7 @@ TEST(ConfigTextTest, AConfigFileMayBeAPlantsSimConfig) {
   config = LoadSessionConfigFile(sim);
   EXPECT_THAT(std::string(config.status().message()),
               ::testing::AllOf(HasSubstr("SimConfig text format: 2:"),
-                               HasSubstr("Valid: TARGET_DELTA, TARGET_NEXT"),
+                               HasSubstr("Valid: delta, next"),
                                ::testing::Not(HasSubstr("SessionConfig"))));
   const std::string session = tmp.path() + "/session.textproto";
   std::ofstream(session) << "state_dim: 2\nhorizon: many\n";
