@@ -107,8 +107,23 @@ def test_config_from_textproto_file_string_and_errors(client):
 
     with pytest.raises(ValueError):
         excite.session_config("state_dim: oops")
-    with pytest.raises(ValueError):
+    # An unknown field is named with the valid ones in proto (snake_case) names.
+    with pytest.raises(ValueError, match=r"'no_such_field' is not a field of SessionConfig"):
         excite.session_config({"no_such_field": 1})
+    with pytest.raises(ValueError, match=r"'state_bound' .*did you mean 'state_bounds'.* "
+                                         r"its fields: .*input_bounds"):
+        excite.session_config({"state_bound": [[0, 1]]})
+    with pytest.raises(ValueError, match=r"kernel\.'fitt' is not a field of KernelConfig"):
+        excite.session_config({"kernel": {"fitt": True}})
+    # Textproto takes short enum names in any case too; strings and comments stay.
+    short = excite.session_config(
+        'strategy: Auto  # strategy: nope\ntarget: delta\nauto { members: [rec, ROI] }')
+    assert short.strategy == excite.config_pb.STRATEGY_AUTO
+    assert short.target == excite.config_pb.TARGET_DELTA
+    assert list(short.auto.members) == [excite.config_pb.STRATEGY_REC,
+                                        excite.config_pb.STRATEGY_ROI]
+    assert excite.session_config('state_names: ["strategy: rec"]').state_names == [
+        "strategy: rec"]
     # Strategy names in any case, short or enum, also auto's members; an unknown
     # one lists the valid names (issue 31).
     for name in ("REC", "Rec", "STRATEGY_REC", "strategy_rec"):

@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import difflib
 import os
 import pathlib
+import re
 import time
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -295,6 +297,57 @@ def _friendly_dict(config: Mapping[str, Any]) -> dict:
     return result
 
 
+# A textproto's strings and comments (left alone), or an enum field and its value
+# or list of values.
+_TEXT_ENUM = re.compile(
+    r'("(?:[^"\\\n]|\\.)*"|\'(?:[^\'\\\n]|\\.)*\'|#[^\n]*)'
+    r"|\b(strategy|target|members)(\s*:\s*)(\[[^\]]*\]|[A-Za-z_][A-Za-z0-9_]*)")
+
+
+def _with_enum_names(text: str) -> str:
+    """A textproto with enum values written by their short names in any case
+    ("strategy: rec", "members: [Roi, random]") given their enum names, which is
+    all protobuf's text parser takes; unknown values are left to its error."""
+    def full(key: str, value: str) -> str:
+        try:
+            return str(_enum_name("strategy" if key == "members" else key, value))
+        except ValueError:
+            return value
+
+    def replace(m: "re.Match[str]") -> str:
+        if m.group(1):
+            return m.group(1)
+        key, colon, value = m.group(2), m.group(3), m.group(4)
+        if value.startswith("["):
+            items = re.sub(r"[A-Za-z_][A-Za-z0-9_]*", lambda v: full(key, v.group(0)), value)
+            return key + colon + items
+        return key + colon + full(key, value)
+
+    return _TEXT_ENUM.sub(replace, text)
+
+
+def _check_fields(config: Mapping[str, Any], descriptor: Any, path: str) -> None:
+    """ValueError naming an unknown field of the dict by its proto (snake_case)
+    name, with the valid ones and the nearest (json_format would list camelCase)."""
+    for key, value in config.items():
+        field = descriptor.fields_by_name.get(key)
+        if field is None:
+            field = next((f for f in descriptor.fields if f.json_name == key), None)
+        if field is None:
+            names = sorted(descriptor.fields_by_name)
+            near = difflib.get_close_matches(str(key), names, n=1)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise ValueError(f"bad session config: {path}{key!r} is not a field of "
+                             f"{descriptor.name}{hint}; its fields: {', '.join(names)}")
+        if field.message_type is None:
+            continue
+        items = value if isinstance(value, list) else [value]
+        for i, item in enumerate(items):
+            if isinstance(item, Mapping):
+                where = f"{path}{key}[{i}]." if isinstance(value, list) else f"{path}{key}."
+                _check_fields(item, field.message_type, where)
+
+
 def _looks_like_a_path(text: str) -> bool:
     """One line with no textproto syntax in it that names a file: a .textproto
     or .txt suffix, or a directory part."""
@@ -323,8 +376,10 @@ def session_config(config: ConfigLike) -> config_pb.SessionConfig:
         return session_config(config.session)
     if isinstance(config, Mapping):
         message = config_pb.SessionConfig()
+        friendly = _friendly_dict(config)
+        _check_fields(friendly, message.DESCRIPTOR, "")
         try:
-            json_format.ParseDict(_friendly_dict(config), message)
+            json_format.ParseDict(friendly, message)
         except json_format.ParseError as e:
             raise ValueError(f"bad session config: {e}") from e
         return message
@@ -340,7 +395,7 @@ def session_config(config: ConfigLike) -> config_pb.SessionConfig:
         for kind in (config_pb.SessionConfig, sim_pb.SimConfig):
             parsed = kind()
             try:
-                text_format.Parse(config, parsed)
+                text_format.Parse(_with_enum_names(config), parsed)
             except text_format.ParseError as e:
                 errors.append(f"as {kind.__name__}: {e}")
                 continue
