@@ -12,6 +12,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/strip.h"
 #include "client/transition_csv.h"
 #include "server/service/strategy_names.h"
 #include "sim/evaluation.h"
@@ -69,9 +70,14 @@ class ExplorationRun {
         design_random_(config.session().seed(), 3) {}
 
   absl::StatusOr<RunSummary> Run();
+  bool keeps_session() const { return options_.keep_session || options_.resume_session; }
   const std::string& session_name() const { return session_name_; }
 
  private:
+  // CreateSession (with replace_session), or the session to resume.
+  absl::StatusOr<v1::Session> OpenSession();
+  // resume_session: the stored samples' count, sequences, last state and states.
+  absl::StatusOr<v1::Session> Resume();
   absl::Status Explore();
   // ExplorationOptions::uniform_design.
   absl::Status ExploreUniformly();
@@ -112,6 +118,11 @@ class ExplorationRun {
   std::vector<v1::Transition> pending_;
   bool trajectory_header_written_ = false;
   int64_t samples_ = 0;
+  // A transition's sequence number is sequence_offset_ + its sample index
+  // (resume_session: after the stored ones).
+  int64_t sequence_offset_ = 0;
+  bool resumed_ = false;
+  std::string strategy_name_;
   double start_unix_s_ = 0.0;
   std::vector<double> plan_ms_;
   int64_t random_steps_ = 0;
@@ -141,18 +152,8 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   if (!rollouts.ok()) return Annotate(rollouts.status(), "rollout set");
   rollouts_ = *std::move(rollouts);
 
-  absl::StatusOr<v1::Session> session =
-      client_.CreateSession(config_.session(), options_.session_id);
-  if (!session.ok() && session.status().code() == absl::StatusCode::kAlreadyExists &&
-      options_.replace_session) {
-    const std::string existing = absl::StrCat("sessions/", options_.session_id);
-    if (absl::Status s = client_.DeleteSession(existing); !s.ok()) {
-      return Annotate(s, absl::StrCat("DeleteSession ", existing, " (--replace)"));
-    }
-    if (options_.log != nullptr) *options_.log << "replaced " << existing << "\n";
-    session = client_.CreateSession(config_.session(), options_.session_id);
-  }
-  if (!session.ok()) return Annotate(session.status(), "CreateSession");
+  absl::StatusOr<v1::Session> session = OpenSession();
+  if (!session.ok()) return session.status();
   session_name_ = session->name();
   // The server fills the defaults into the config it returns; 2 is the documented
   // default should it not.
@@ -171,10 +172,16 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   }
 
   absl::Status explored = Explore();
+  // A resumed session that already held its samples is still scored once.
+  if (explored.ok() && summary_.rmse_history.empty() && samples_ >= min_samples_) {
+    explored = Evaluate();
+  }
   if (explored.ok()) explored = RollOut();
   // What became of the session, for a failure's message.
-  std::string left = "the session is kept";
-  if (!options_.keep_session) {
+  std::string left =
+      absl::StrCat("the session is kept: continue it with --resume --session_id=",
+                   absl::StripPrefix(session_name_, "sessions/"));
+  if (!keeps_session()) {
     const absl::Status deleted = client_.DeleteSession(session_name_);
     if (explored.ok() && !deleted.ok()) {
       explored = Annotate(deleted, absl::StrCat("DeleteSession ", session_name_));
@@ -202,9 +209,7 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
                               config_.session().state_names().end());
   summary_.state_units.assign(config_.session().state_units().begin(),
                               config_.session().state_units().end());
-  summary_.strategy = options_.uniform_design
-                          ? "uniform"
-                          : service::StrategyShortName(config_.session().strategy());
+  summary_.strategy = options_.uniform_design ? "uniform" : strategy_name_;
   summary_.session = session_name_;
   summary_.samples = samples_;
   summary_.final_rmse =
@@ -227,6 +232,68 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   }
   summary_.wall_s = MillisecondsSince(start) / 1000.0;
   return summary_;
+}
+
+absl::StatusOr<v1::Session> ExplorationRun::OpenSession() {
+  if (options_.resume_session) return Resume();
+  strategy_name_ = service::StrategyShortName(config_.session().strategy());
+  absl::StatusOr<v1::Session> session =
+      client_.CreateSession(config_.session(), options_.session_id);
+  if (!session.ok() && session.status().code() == absl::StatusCode::kAlreadyExists &&
+      options_.replace_session) {
+    const std::string existing = absl::StrCat("sessions/", options_.session_id);
+    if (absl::Status s = client_.DeleteSession(existing); !s.ok()) {
+      return Annotate(s, absl::StrCat("DeleteSession ", existing, " (--replace)"));
+    }
+    if (options_.log != nullptr) *options_.log << "replaced " << existing << "\n";
+    session = client_.CreateSession(config_.session(), options_.session_id);
+  }
+  if (!session.ok()) return Annotate(session.status(), "CreateSession");
+  return session;
+}
+
+absl::StatusOr<v1::Session> ExplorationRun::Resume() {
+  const std::string name = absl::StrCat("sessions/", options_.session_id);
+  absl::StatusOr<v1::SessionArchive> archive = client_.ExportSession(name);
+  if (!archive.ok()) {
+    if (archive.status().code() == absl::StatusCode::kNotFound) {
+      return absl::NotFoundError(
+          absl::StrCat("--resume: there is no session ", name,
+                       " to continue (start one without --resume)"));
+    }
+    return Annotate(archive.status(),
+                    absl::StrCat("ExportSession ", name, " (--resume)"));
+  }
+  const v1::SessionConfig& stored = archive->config();
+  if (stored.state_dim() != dx_ || stored.input_dim() != du_) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("--resume: session ", name, " has state_dim ", stored.state_dim(),
+                     " and input_dim ", stored.input_dim(), "; the ", plant_.name(),
+                     " has ", dx_, " and ", du_));
+  }
+  strategy_name_ = service::StrategyShortName(stored.strategy());
+  samples_ = archive->samples_size();
+  x_ = Eigen::VectorXd::Zero(dx_);
+  for (int i = 0; i < config_.plant().initial_state_size(); ++i) {
+    x_(i) = config_.plant().initial_state(i);
+  }
+  for (const v1::Transition& t : archive->samples()) {
+    visited_.push_back(Eigen::Map<const Eigen::VectorXd>(t.state().data(), dx_));
+  }
+  if (samples_ > 0) {
+    const v1::Transition& last = archive->samples(static_cast<int>(samples_ - 1));
+    x_ = Eigen::Map<const Eigen::VectorXd>(last.next_state().data(), dx_);
+    sequence_offset_ = last.sequence() + 1 - samples_;
+  }
+  // The stored samples used one measurement each, and the first state one.
+  for (int64_t k = 0; k < (samples_ + 1) * dx_; ++k) noise_random_.Normal();
+  resumed_ = true;
+  if (options_.log != nullptr) {
+    *options_.log << "resuming " << name << " at " << samples_ << " samples\n";
+  }
+  absl::StatusOr<v1::Session> session = client_.GetSession(name);
+  if (!session.ok()) return Annotate(session.status(), absl::StrCat("GetSession ", name));
+  return session;
 }
 
 absl::Status ExplorationRun::ExploreUniformly() {
@@ -255,12 +322,16 @@ absl::Status ExplorationRun::Explore() {
   if (options_.uniform_design) return ExploreUniformly();
   const int64_t target = config_.samples();
 
-  x_ = Eigen::VectorXd::Zero(dx_);
-  for (int i = 0; i < config_.plant().initial_state_size(); ++i) {
-    x_(i) = config_.plant().initial_state(i);
+  if (resumed_) {
+    y_ = x_;  // the stored measurement; the plant continues from it
+  } else {
+    x_ = Eigen::VectorXd::Zero(dx_);
+    for (int i = 0; i < config_.plant().initial_state_size(); ++i) {
+      x_(i) = config_.plant().initial_state(i);
+    }
+    y_ = Measure(x_);
+    visited_.push_back(x_);
   }
-  y_ = Measure(x_);
-  visited_.push_back(x_);
 
   while (samples_ < target) {
     if (options_.interrupted != nullptr && options_.interrupted->load()) {
@@ -344,7 +415,7 @@ absl::Status ExplorationRun::ApplyInput(const Eigen::VectorXd& u) {
   for (int i = 0; i < dx_; ++i) transition.add_state(y_(i));
   for (int j = 0; j < du_; ++j) transition.add_input(u(j));
   for (int i = 0; i < dx_; ++i) transition.add_next_state(y_next(i));
-  transition.set_sequence(samples_);
+  transition.set_sequence(sequence_offset_ + samples_);
   transition.set_timestamp_s(start_unix_s_ +
                              static_cast<double>(samples_) * config_.plant().dt_s());
   pending_.push_back(std::move(transition));
@@ -464,6 +535,12 @@ absl::StatusOr<RunSummary> RunExploration(client::ExciteClient& client,
       plant.input_dim() != config.session().input_dim()) {
     return absl::InvalidArgumentError(
         "the plant's dims differ from the session config's");
+  }
+  if (options.resume_session &&
+      (options.session_id.empty() || options.replace_session || options.uniform_design)) {
+    return absl::InvalidArgumentError(
+        "--resume needs --session_id, and goes with neither --replace nor the uniform "
+        "design");
   }
   ExplorationRun run(client, plant, config, options);
   return run.Run();

@@ -39,12 +39,23 @@ struct ExplorationOptions {
   // A session with session_id that exists already is deleted and created anew
   // (default: CreateSession's ALREADY_EXISTS ends the run).
   bool replace_session = false;
+  // Continue the existing session session_id instead of creating one: its
+  // samples stay, new ones are numbered after its last sequence number, the
+  // plant starts from the last stored next_state (a measurement: the true state
+  // is not stored, so the plant takes it as the true one), the measurement noise
+  // continues past the draws the stored samples used, and the run collects until
+  // the session holds `samples`. The session plans with its stored config, whose
+  // dimensions must be the plant's (FAILED_PRECONDITION otherwise); NOT_FOUND if
+  // there is no such session. The session is kept at the end: the run did not
+  // create it. Coverage counts the stored samples by their measured states.
+  bool resume_session = false;
 };
 
 // Runs one exploration of `plant` against the server behind `client`, as `config`
 // (already validated by ValidateSimConfig, overrides applied) describes:
 //
-//  1. CreateSession(config.session); x = plant.initial_state (zeros if empty); the
+//  1. CreateSession(config.session) (or resume_session); x = plant.initial_state
+//     (zeros if empty); the
 //     measured state is y = x + e, e ~ N(0, noise.variance) per dimension, drawn
 //     from PortableRandom(session.seed, stream 1).
 //  2. Until `samples` transitions: PlanInputs(y). While the session holds fewer than

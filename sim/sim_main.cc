@@ -49,6 +49,11 @@ ABSL_FLAG(bool, keep_session, false,
 ABSL_FLAG(bool, replace, false,
           "with --session_id: delete a session of that id that exists already and "
           "start anew (default: ALREADY_EXISTS ends the run)");
+ABSL_FLAG(bool, resume, false,
+          "with --session_id: continue that session (kept, say, with --keep_session "
+          "before a Ctrl-C) until it holds --samples: its samples stay, the plant starts "
+          "from its last stored state, the session's stored config plans; the session is "
+          "kept at the end");
 ABSL_FLAG(std::string, session_id, "", "session id to ask for; empty: server's choice");
 ABSL_FLAG(int32_t, connect_timeout_s, 10, "how long to wait for the server to be ready");
 ABSL_FLAG(int32_t, retry_unavailable_s, 30,
@@ -146,6 +151,7 @@ int Main() {
   options.session_id = absl::GetFlag(FLAGS_session_id);
   options.keep_session = absl::GetFlag(FLAGS_keep_session);
   options.replace_session = absl::GetFlag(FLAGS_replace);
+  options.resume_session = absl::GetFlag(FLAGS_resume);
   options.interrupted = &interrupted;
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);
@@ -200,7 +206,9 @@ int Main() {
     if (absl::Status s = WriteRunSummary(*summary, path); !s.ok()) return Fail(s);
     std::cout << "summary written to " << path << "\n";
   }
-  if (options.keep_session) std::cout << "session kept: " << summary->session << "\n";
+  if (options.keep_session || options.resume_session) {
+    std::cout << "session kept: " << summary->session << "\n";
+  }
   return 0;
 }
 

@@ -14,6 +14,7 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <regex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -309,8 +310,37 @@ TEST_F(EndToEndTest, SimSaysWhatAnInterruptLeavesBehind) {
   EXPECT_NE(cli_err.find("NOT_FOUND"), std::string::npos) << cli_err;
 
   err = interrupted({"--keep_session"});
-  EXPECT_NE(err.find("(the session is kept)"), std::string::npos) << err;
+  EXPECT_NE(
+      err.find("(the session is kept: continue it with --resume --session_id=ctrl-c)"),
+      std::string::npos)
+      << err;
   ASSERT_EQ(RunCli({"sessions", "get", "ctrl-c"}, &out, &cli_err), 0) << cli_err;
+  std::smatch kept;
+  ASSERT_TRUE(std::regex_search(out, kept, std::regex(R"(sample_count: (\d+))"))) << out;
+  const int held = std::stoi(kept[1].str());
+  // --resume continues it: its samples stay, new ones are numbered after them.
+  ASSERT_EQ(
+      RunSim({"--session_id=ctrl-c", "--resume", absl::StrCat("--samples=", held + 8)},
+             "resume", seconds(120)),
+      0)
+      << ReadFileOrEmpty(sim_err_);
+  EXPECT_NE(ReadFileOrEmpty(sim_out_).find(
+                absl::StrCat("resuming sessions/ctrl-c at ", held, " samples")),
+            std::string::npos)
+      << ReadFileOrEmpty(sim_out_);
+  EXPECT_NE(ReadFileOrEmpty(sim_out_).find("session kept: sessions/ctrl-c"),
+            std::string::npos);
+  ASSERT_EQ(RunCli({"sessions", "get", "ctrl-c"}, &out, &cli_err), 0) << cli_err;
+  EXPECT_NE(out.find(absl::StrCat("sample_count: ", held + 8)), std::string::npos) << out;
+  EXPECT_NE(out.find(absl::StrCat("last_sequence: ", held + 7)), std::string::npos)
+      << out;
+  EXPECT_EQ(RunSim({"--session_id=nobody", "--resume", "--samples=12"}, "resume-missing",
+                   seconds(120)),
+            1);
+  EXPECT_NE(
+      ReadFileOrEmpty(sim_err_).find("there is no session sessions/nobody to continue"),
+      std::string::npos)
+      << ReadFileOrEmpty(sim_err_);
   // The same id again: refused, unless --replace.
   EXPECT_EQ(RunSim({"--session_id=ctrl-c", "--samples=12"}, "again", seconds(120)), 1);
   EXPECT_NE(ReadFileOrEmpty(sim_err_).find("ALREADY_EXISTS"), std::string::npos);
