@@ -28,11 +28,17 @@ std::vector<absl::string_view> Fields(absl::string_view line) {
 
 }  // namespace
 
-std::string TransitionCsvHeader(int dx, int du) {
+std::string TransitionCsvHeader(int dx, int du, const std::vector<std::string>& state_names,
+                                const std::vector<std::string>& input_names) {
+  const bool named = state_names.size() == static_cast<size_t>(dx) &&
+                     input_names.size() == static_cast<size_t>(du);
+  const auto x = [&](int i) { return named ? state_names[i] : absl::StrCat("x", i); };
   std::string header;
-  for (int i = 0; i < dx; ++i) absl::StrAppend(&header, i == 0 ? "" : ",", "x", i);
-  for (int j = 0; j < du; ++j) absl::StrAppend(&header, ",u", j);
-  for (int i = 0; i < dx; ++i) absl::StrAppend(&header, ",x", i, "_next");
+  for (int i = 0; i < dx; ++i) absl::StrAppend(&header, i == 0 ? "" : ",", x(i));
+  for (int j = 0; j < du; ++j) {
+    absl::StrAppend(&header, ",", named ? input_names[j] : absl::StrCat("u", j));
+  }
+  for (int i = 0; i < dx; ++i) absl::StrAppend(&header, ",", x(i), "_next");
   absl::StrAppend(&header, ",sequence");
   return header;
 }

@@ -20,8 +20,11 @@ namespace excite::client {
 // skipped.
 
 // The header line (no newline) for state_dim dx and input_dim du, with the
-// sequence column.
-std::string TransitionCsvHeader(int dx, int du);
+// sequence column: the config's dimension names when given (dx and du of them;
+// "theta,theta_dot,tau,theta_next,theta_dot_next,sequence"), else x0.., u0...
+std::string TransitionCsvHeader(int dx, int du,
+                                const std::vector<std::string>& state_names = {},
+                                const std::vector<std::string>& input_names = {});
 // One row (no newline), every number to 17 significant digits (exact).
 std::string TransitionCsvRow(const v1::Transition& transition);
 

@@ -452,7 +452,11 @@ absl::Status ExplorationRun::FlushAndMaybeEvaluate() {
 void ExplorationRun::WriteTrajectory(const std::vector<v1::Transition>& stored) {
   std::ostream& out = *options_.trajectory;
   if (!trajectory_header_written_) {
-    out << client::TransitionCsvHeader(dx_, du_) << "\n";
+    const v1::SessionConfig& session = config_.session();
+    out << client::TransitionCsvHeader(
+               dx_, du_, {session.state_names().begin(), session.state_names().end()},
+               {session.input_names().begin(), session.input_names().end()})
+        << "\n";
     trajectory_header_written_ = true;
   }
   for (const v1::Transition& t : stored) out << client::TransitionCsvRow(t) << "\n";

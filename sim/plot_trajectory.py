@@ -19,34 +19,37 @@ import numpy as np  # noqa: E402
 
 
 def read_trajectory(path):
-    """(steps, x, u) from the CSV excite-sim writes (header x0..,u0..,x0_next..,sequence)."""
+    """(steps, x, u, state names, input names) from the CSV excite-sim writes: a
+    header of x.., u.., x.._next.., sequence, the config's dimension names when it
+    has them (theta,theta_dot,tau,theta_next,theta_dot_next,sequence), else x0.., u0..."""
     with open(path, newline="") as f:
-        rows = list(csv.reader(f))
+        rows = [row for row in csv.reader(f) if row and not row[0].startswith("#")]
     if len(rows) < 2:
         raise ValueError(f"{path}: no transitions")
     header = rows[0]
-    xs = [i for i, name in enumerate(header) if name.startswith("x") and "_" not in name]
-    us = [i for i, name in enumerate(header) if name.startswith("u")]
-    if header[-1] != "sequence" or not xs or not us:
+    dx = sum(1 for name in header if name.endswith("_next"))
+    du = len(header) - 1 - 2 * dx
+    if header[-1] != "sequence" or dx < 1 or du < 1 or header[dx + du:-1] != [
+            name + "_next" for name in header[:dx]]:
         raise ValueError(f"{path}: not an excite-sim trajectory (header {header})")
     data = np.array([[float(v) for v in row] for row in rows[1:]])
-    return data[:, -1], data[:, xs], data[:, us]
+    return data[:, -1], data[:, :dx], data[:, dx:dx + du], header[:dx], header[dx:dx + du]
 
 
 def plot(path, out, dims):
-    steps, x, u = read_trajectory(path)
+    steps, x, u, state_names, input_names = read_trajectory(path)
     fig, axes = plt.subplots(1, 3, figsize=(15, 4))
     for i in range(x.shape[1]):
-        axes[0].plot(steps, x[:, i], label=f"x{i}")
+        axes[0].plot(steps, x[:, i], label=state_names[i])
     axes[0].set(xlabel="step", ylabel="measured state", title="states")
     axes[0].legend(fontsize="small")
     for j in range(u.shape[1]):
-        axes[1].step(steps, u[:, j], where="post", label=f"u{j}")
+        axes[1].step(steps, u[:, j], where="post", label=input_names[j])
     axes[1].set(xlabel="step", ylabel="applied input", title="inputs")
     axes[1].legend(fontsize="small")
     a, b = dims if x.shape[1] > max(dims) else (0, 0)
     points = axes[2].scatter(x[:, a], x[:, b], c=steps, s=8, cmap="viridis")
-    axes[2].set(xlabel=f"x{a}", ylabel=f"x{b}", title="visited states")
+    axes[2].set(xlabel=state_names[a], ylabel=state_names[b], title="visited states")
     fig.colorbar(points, ax=axes[2], label="step")
     fig.suptitle(f"{path}: {len(steps)} transitions")
     fig.tight_layout()

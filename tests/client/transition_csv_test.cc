@@ -34,6 +34,10 @@ TEST(TransitionCsvTest, WhatExciteSimWritesReadsBackExactly) {
   t.set_sequence(41);
   const std::string text = TransitionCsvHeader(2, 1) + "\n" + TransitionCsvRow(t) + "\n";
   EXPECT_EQ(TransitionCsvHeader(2, 1), "x0,x1,u0,x0_next,x1_next,sequence");
+  EXPECT_EQ(TransitionCsvHeader(2, 1, {"theta", "omega"}, {"tau"}),
+            "theta,omega,tau,theta_next,omega_next,sequence");
+  EXPECT_EQ(TransitionCsvHeader(2, 1, {"theta"}, {"tau"}),  // not one per dimension
+            "x0,x1,u0,x0_next,x1_next,sequence");
   const auto parsed = Parse(text);
   ASSERT_TRUE(parsed.ok()) << parsed.status();
   ASSERT_EQ(parsed->size(), 1u);

@@ -637,6 +637,13 @@ def test_samples_round_trip_through_the_one_csv_layout(client, tmp_path):
                      sequences=back.sequences).stored == 12
     assert other.add(back.states, back.inputs, back.next_states,
                      sequences=back.sequences).duplicates == 12
+    # A session that names its dimensions writes them in the header.
+    named = client.create_session(linear_config(state_names=["p", "v"], input_names=["f"]))
+    named.add(x, u, x_next)
+    named.samples().to_csv(tmp_path / "named.csv")
+    assert (tmp_path / "named.csv").read_text().splitlines()[0] == "p,v,f,p_next,v_next,sequence"
+    assert excite.Samples.from_csv(tmp_path / "named.csv", 2, 1).states.shape == (12, 2)
+    named.delete()
     bad = tmp_path / "bad.csv"
     bad.write_text(lines[0] + "\n0.1,0.2,O.5,0.1,0.2,0\n")
     with pytest.raises(ValueError, match=r"line 2, column 3: 'O.5' is not a finite"):

@@ -29,6 +29,17 @@ def main():
         data = png.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20000, len(data)
 
+        # The config's names, when excite-sim writes them, label the panels.
+        named = pathlib.Path(tmp) / "named.csv"
+        named.write_text("\n".join(["theta,theta_dot,tau,theta_next,theta_dot_next,sequence"]
+                                   + lines[1:]) + "\n")
+        sys.path.insert(0, str(SCRIPT.parent))
+        import plot_trajectory  # noqa: E402
+        steps, x, u, states, inputs = plot_trajectory.read_trajectory(str(named))
+        assert (states, inputs) == (["theta", "theta_dot"], ["tau"]), (states, inputs)
+        assert x.shape == (50, 2) and u.shape == (50, 1) and steps[-1] == 49
+        assert run(str(named)).returncode == 0
+
         bad = pathlib.Path(tmp) / "bad.csv"
         bad.write_text("a,b\n1,2\n")
         result = run(str(bad))

@@ -148,12 +148,15 @@ class Samples:
 
     def to_csv(self, path: Union[str, "os.PathLike[str]"]) -> None:
         """Writes the transitions in excite's one CSV layout (what ``excite add``
-        reads and ``excite-sim --trajectory`` writes): a header
-        x0..,u0..,x0_next..,sequence, then one row each, numbers exact (17
-        significant digits). Timestamps are not part of the layout."""
+        reads and ``excite-sim --trajectory`` writes): a header of the
+        dimension names (x0..,u0.. if the config names none) with x.._next for the
+        next states and sequence, then one row each, numbers exact (17 significant
+        digits). Timestamps are not part of the layout."""
         dx, du = self.states.shape[1], self.inputs.shape[1]
-        header = ([f"x{i}" for i in range(dx)] + [f"u{j}" for j in range(du)]
-                  + [f"x{i}_next" for i in range(dx)] + ["sequence"])
+        named = len(self.state_names) == dx and len(self.input_names) == du
+        xs = list(self.state_names) if named else [f"x{i}" for i in range(dx)]
+        us = list(self.input_names) if named else [f"u{j}" for j in range(du)]
+        header = xs + us + [f"{x}_next" for x in xs] + ["sequence"]
         with open(path, "w", encoding="utf-8") as f:
             f.write(",".join(header) + "\n")
             for x, u, x_next, seq in zip(self.states, self.inputs, self.next_states,
