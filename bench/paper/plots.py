@@ -17,8 +17,10 @@ Made to be read, not only to exist (issue 12):
 - Log scale rule, per panel: the y axis is logarithmic when the mean curves drawn in
   the panel (references included) span more than LOG_DECADES (0.75) decades,
   max / min > 10^0.75 = 5.6; otherwise linear from 0. Either way the y limits come
-  from the mean curves (first points included), never from the last stretch alone,
-  so trial-to-trial noise is not magnified.
+  from the mean curves (first points included) and the highlighted curves' ± std
+  bands, so no band is cut at the top or bottom of the axes; never from the last
+  stretch alone, so trial-to-trial noise is not magnified. On a log axis a band
+  whose lower end is at or below 0 cannot be drawn: it runs to the bottom edge.
 - Every legend entry carries the number of trials behind the curve, "rec (n=3)"
   ("n=2-3" when trials have histories of different lengths) and its final mean
   RMSE; the legend is sorted by that final value and sits outside the axes.
@@ -124,7 +126,8 @@ def panel_plan(history, system, strategies):
       references   the reference strategies drawn
       order        legend order: ranked, then references
       log          True when max / min of the mean curves > 10^LOG_DECADES
-      ylim         (low, high): log: min / 1.15 .. max * 1.15; linear: 0 .. max * 1.05
+      ylim         (low, high) over the means and the highlighted bands: log: min /
+                   1.15 .. max * 1.15 (band ends <= 0 left out); linear: 0 .. max * 1.05
       xmax         the largest sample count
     """
     curves = []
@@ -145,14 +148,19 @@ def panel_plan(history, system, strategies):
     means = [r[1] for c in curves for r in c["rows"]]
     low, high = min(means), max(means)
     log = low > 0 and math.log10(high / low) > LOG_DECADES
+    highlighted = _highlighted(ranked, curves)
+    bands = [(r[1] - r[2], r[1] + r[2]) for c in curves if c["strategy"] in highlighted
+             for r in c["rows"] if r[2] is not None and math.isfinite(r[2])]
+    high = max([high] + [b[1] for b in bands])
     if log:
+        low = min([low] + [b[0] for b in bands if b[0] > 0])
         ylim = (low / 1.15, high * 1.15)
     else:
         ylim = (0.0, high * 1.05 if high > 0 else 1.0)
     return {
         "curves": curves,
         "ranked": ranked,
-        "highlighted": _highlighted(ranked, curves),
+        "highlighted": highlighted,
         "references": references,
         "order": ranked + references,
         "log": log,

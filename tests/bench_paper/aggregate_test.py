@@ -373,16 +373,33 @@ class PlotRulesTest(unittest.TestCase):
         plan = plots.panel_plan(self.history(), "p", self.STRATEGIES)
         self.assertFalse(plan["log"])
         self.assertEqual(plan["ylim"][0], 0.0)
-        self.assertAlmostEqual(plan["ylim"][1], 1.05)
+        self.assertAlmostEqual(plan["ylim"][1], 1.01 * 1.05)  # rec's band: 1.0 + 0.01
         # A factor 6 (first point included): log, limits around the mean curves.
         h = self.history()
         h[("p", "uniform")] = rows(0.5, 1.0 / 6.0)
         plan = plots.panel_plan(h, "p", self.STRATEGIES)
         self.assertTrue(plan["log"])
         self.assertAlmostEqual(plan["ylim"][0], 1.0 / 6.0 / 1.15)
-        self.assertAlmostEqual(plan["ylim"][1], 1.15)
+        self.assertAlmostEqual(plan["ylim"][1], 1.01 * 1.15)
         # other: 9.0 to 0.01, three decades.
         self.assertTrue(plots.panel_plan(h, "other", self.STRATEGIES)["log"])
+
+    def test_the_highlighted_bands_fit_within_the_axes(self):
+        h = self.history()
+        h[("p", "rec")] = rows(1.0, 0.30, std=0.5)  # a wide band: 1.5 at the top
+        plan = plots.panel_plan(h, "p", self.STRATEGIES)
+        self.assertAlmostEqual(plan["ylim"][1], 1.5 * 1.05)
+        h[("p", "roi")] = rows(1.0, 0.6, std=3.0)  # not highlighted: no band, no room
+        self.assertAlmostEqual(plots.panel_plan(h, "p", self.STRATEGIES)["ylim"][1], 1.575)
+        # Log: the lower band ends that are positive set the bottom, others are left out.
+        h = self.history()
+        h[("p", "uniform")] = rows(0.5, 1.0 / 6.0)
+        h[("p", "rec")] = rows(1.0, 0.30, std=0.29)  # 0.01 at the bottom
+        h[("p", "pa")] = rows(1.0, 0.40, std=0.5)  # <= 0: left out
+        plan = plots.panel_plan(h, "p", self.STRATEGIES)
+        self.assertTrue(plan["log"])
+        self.assertAlmostEqual(plan["ylim"][0], 0.01 / 1.15)
+        self.assertAlmostEqual(plan["ylim"][1], 1.5 * 1.15)
 
     def test_drawn_panel(self):
         import matplotlib.pyplot as plt
