@@ -168,6 +168,12 @@ absl::StatusOr<v1::Session> ExciteClient::GetSession(const std::string& name) {
                options_.default_deadline, Resend::kAfterLostAnswer);
 }
 
+absl::StatusOr<v1::RolloutResponse> ExciteClient::Rollout(
+    const v1::RolloutRequest& request) {
+  return Unary(&v1::ExplorationService::Stub::Rollout, request, request.session(),
+               options_.default_deadline, Resend::kAfterLostAnswer);
+}
+
 absl::StatusOr<v1::SessionHistory> ExciteClient::GetSessionHistory(
     const std::string& name) {
   v1::GetSessionHistoryRequest request;

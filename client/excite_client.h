@@ -38,8 +38,9 @@ struct ClientOptions {
   // never. Safe for AddData (sequence numbers make a resent batch a
   // duplicate), which is also retried after DEADLINE_EXCEEDED (data_deadline).
   // Reads, PlanInputs and AddData are also retried after a lost answer (UNKNOWN
-  // "Stream removed": a proxy's replica died mid-call); a CreateSession without an id that failed after the server stored it
-  // leaves an unused session behind. DataStream is not retried.
+  // "Stream removed": a proxy's replica died mid-call); a CreateSession without an id
+  // that failed after the server stored it leaves an unused session behind. DataStream is
+  // not retried.
   std::chrono::milliseconds retry_unavailable{0};
 };
 
@@ -103,6 +104,8 @@ class ExciteClient {
   // With everything CreateSessionRequest holds (display name, labels).
   absl::StatusOr<v1::Session> CreateSession(const v1::CreateSessionRequest& request);
   absl::StatusOr<v1::Session> GetSession(const std::string& name);
+  // The model rolled forward along an input sequence (Rollout).
+  absl::StatusOr<v1::RolloutResponse> Rollout(const v1::RolloutRequest& request);
   // The session's plans, batch errors and mean std so far (GetSessionHistory).
   absl::StatusOr<v1::SessionHistory> GetSessionHistory(const std::string& name);
   // `filter` as in ListSessionsRequest.filter (empty: every session).

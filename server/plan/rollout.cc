@@ -60,6 +60,42 @@ Rollout RollOut(const gp::DynamicsPredictor& model, const Eigen::VectorXd& x0,
   return r;
 }
 
+PropagatedTrajectory PropagateLinearised(const gp::DynamicsPredictor& model,
+                                         const Eigen::VectorXd& x0,
+                                         const Eigen::MatrixXd& x0_covariance,
+                                         const Eigen::MatrixXd& inputs,
+                                         const Eigen::VectorXd& step_noise) {
+  const int dx = model.state_dim();
+  const int du = model.input_dim();
+  const auto steps = inputs.rows();
+  PropagatedTrajectory out;
+  if (x0.size() != dx || x0_covariance.rows() != dx || x0_covariance.cols() != dx ||
+      inputs.cols() != du || (step_noise.size() != 0 && step_noise.size() != dx)) {
+    return out;
+  }
+  out.means.resize(steps + 1, dx);
+  out.means.row(0) = x0.transpose();
+  out.covariances.assign(static_cast<size_t>(steps + 1), x0_covariance);
+  Eigen::MatrixXd z(1, dx + du);
+  Eigen::MatrixXd mean;
+  Eigen::MatrixXd variance;
+  std::vector<Eigen::MatrixXd> jacobians;
+  for (Eigen::Index k = 0; k < steps; ++k) {
+    z << out.means.row(k), inputs.row(k);
+    model.Predict(z, &mean, &variance, &jacobians, nullptr);
+    const Eigen::MatrixXd a = jacobians[0].leftCols(dx);
+    Eigen::VectorXd added = variance.row(0).transpose().cwiseMax(0.0);
+    if (step_noise.size() == dx) added += step_noise;
+    out.means.row(k + 1) = mean.row(0);
+    Eigen::MatrixXd next = a * out.covariances[static_cast<size_t>(k)] * a.transpose();
+    next.diagonal() += added;
+    out.covariances[static_cast<size_t>(k + 1)] = 0.5 * (next + next.transpose());
+  }
+  out.valid = out.means.allFinite();
+  for (const Eigen::MatrixXd& c : out.covariances) out.valid = out.valid && c.allFinite();
+  return out;
+}
+
 Eigen::MatrixXd PointsOf(const Rollout& rollout) {
   Eigen::MatrixXd z(rollout.inputs.rows(), rollout.states.cols() + rollout.inputs.cols());
   z << rollout.states, rollout.inputs;

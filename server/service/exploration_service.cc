@@ -372,6 +372,38 @@ grpc::Status ExplorationService::Predict(grpc::ServerContext* context,
   });
 }
 
+grpc::Status ExplorationService::Rollout(grpc::ServerContext* context,
+                                         const v1::RolloutRequest* request,
+                                         v1::RolloutResponse* response) {
+  return RunRpc("Rollout", request->session(), [&]() -> absl::Status {
+    absl::StatusOr<std::shared_ptr<Session>> session =
+        FindUndamagedSession(request->session(), "session");
+    if (!session.ok()) return session.status();
+    const SessionSpec& spec = (*session)->spec();
+    if (absl::Status s = ValidateRollout(DimsOf(spec), *request); !s.ok()) return s;
+    const Eigen::Index steps = request->inputs_size() / spec.input_dim;
+    const Eigen::VectorXd variance =
+        request->state_variance().empty()
+            ? Eigen::VectorXd::Zero(spec.state_dim)
+            : Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(
+                  request->state_variance().data(), spec.state_dim));
+    absl::StatusOr<session::RolloutResult> rolled = (*session)->Rollout(
+        Eigen::Map<const Eigen::VectorXd>(request->state().data(), spec.state_dim),
+        variance, RowMajorToMatrix(request->inputs(), steps, spec.input_dim),
+        request->include_noise(), BudgetDeadline(*context, spec.time_budget_s),
+        [context]() { return context->IsCancelled(); });
+    if (!rolled.ok()) return rolled.status();
+    const plan::PropagatedTrajectory& t = rolled->trajectory;
+    AppendRowMajor(t.means, response->mutable_means());
+    for (const Eigen::MatrixXd& c : t.covariances) {
+      AppendRowMajor(c, response->mutable_covariances());
+      for (Eigen::Index j = 0; j < c.rows(); ++j) response->add_variances(c(j, j));
+    }
+    response->set_model_version(rolled->model_version);
+    return absl::OkStatus();
+  });
+}
+
 grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
                                             const v1::PlanInputsRequest* request,
                                             v1::PlanInputsResponse* response) {

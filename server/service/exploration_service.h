@@ -52,6 +52,8 @@ class ExplorationService final : public v1::ExplorationService::Service {
   grpc::Status GetSession(grpc::ServerContext* context,
                           const v1::GetSessionRequest* request,
                           v1::Session* response) override;
+  grpc::Status Rollout(grpc::ServerContext* context, const v1::RolloutRequest* request,
+                       v1::RolloutResponse* response) override;
   grpc::Status GetSessionHistory(grpc::ServerContext* context,
                                  const v1::GetSessionHistoryRequest* request,
                                  v1::SessionHistory* response) override;

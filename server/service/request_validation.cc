@@ -125,4 +125,40 @@ absl::Status ValidatePlanState(const Dims& dims,
   return CheckVector("state", state, dims.state_dim, "state_dim");
 }
 
+absl::Status ValidateRollout(const Dims& dims, const v1::RolloutRequest& request) {
+  if (absl::Status s = CheckVector("state", request.state(), dims.state_dim, "state_dim");
+      !s.ok()) {
+    return s;
+  }
+  if (!request.state_variance().empty()) {
+    if (absl::Status s = CheckVector("state_variance", request.state_variance(),
+                                     dims.state_dim, "state_dim (or none)");
+        !s.ok()) {
+      return s;
+    }
+    for (int i = 0; i < request.state_variance_size(); ++i) {
+      if (request.state_variance(i) < 0) {
+        return FieldViolationError(absl::StrCat("state_variance[", i, "]"),
+                                   "a variance cannot be negative");
+      }
+    }
+  }
+  const int steps = dims.input_dim > 0 ? request.inputs_size() / dims.input_dim : 0;
+  if (request.inputs().empty() || request.inputs_size() % dims.input_dim != 0 ||
+      steps > kMaxRolloutSteps) {
+    return FieldViolationError(
+        "inputs", absl::StrCat("must hold 1 to ", kMaxRolloutSteps,
+                               " steps of input_dim (", dims.input_dim, ") numbers, got ",
+                               request.inputs_size(), " numbers"));
+  }
+  for (int i = 0; i < request.inputs_size(); ++i) {
+    if (!InRange(request.inputs(i))) {
+      return FieldViolationError(absl::StrCat("inputs[", i, "]"),
+                                 absl::StrCat("(step ", i / dims.input_dim, ") ",
+                                              OutOfRange(request.inputs(i))));
+    }
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace excite::service

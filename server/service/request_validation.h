@@ -44,6 +44,14 @@ absl::Status ValidatePredictInputs(const Dims& dims,
 absl::Status ValidatePlanState(const Dims& dims,
                                const google::protobuf::RepeatedField<double>& state);
 
+// Steps of one Rollout call (each a one-point prediction with Jacobians, O(n^2)).
+inline constexpr int kMaxRolloutSteps = 1000;
+
+// Checks a Rollout request: state as for PlanInputs; state_variance empty or
+// state_dim numbers >= 0; inputs 1 to kMaxRolloutSteps steps of input_dim
+// numbers, in range. INVALID_ARGUMENT naming the field.
+absl::Status ValidateRollout(const Dims& dims, const v1::RolloutRequest& request);
+
 }  // namespace excite::service
 
 #endif  // EXCITE_SERVER_SERVICE_REQUEST_VALIDATION_H_

@@ -8,6 +8,7 @@
 #include "absl/time/clock.h"
 #include "common/logging.h"
 #include "server/plan/reference_set.h"
+#include "server/plan/rollout.h"
 #include "server/session/memory_budget.h"
 #include "server/session/session_name.h"
 
@@ -635,6 +636,32 @@ absl::StatusOr<Prediction> Session::Predict(const Eigen::MatrixXd& z, bool inclu
   }
   prediction.model_version = model_version_;
   return prediction;
+}
+
+absl::StatusOr<RolloutResult> Session::Rollout(const Eigen::VectorXd& state,
+                                               const Eigen::VectorXd& state_variance,
+                                               const Eigen::MatrixXd& inputs,
+                                               bool include_noise,
+                                               Clock::time_point refit_deadline,
+                                               std::function<bool()> cancelled) {
+  const CallScope call(this);
+  absl::MutexLock lock(&mu_);
+  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  if (absl::Status s = EnsureFitted(refit_deadline, cancelled); !s.ok()) return s;
+  RolloutResult result;
+  try {
+    result.trajectory = plan::PropagateLinearised(
+        *model_, state, state_variance.asDiagonal().toDenseMatrix(), inputs,
+        include_noise ? model_->noise_variances() : Eigen::VectorXd());
+  } catch (const std::exception& e) {
+    return InternalFromException(absl::StrCat("Rollout on ", name_), e);
+  }
+  if (!result.trajectory.valid) {
+    return absl::InternalError(absl::StrCat(
+        "session ", name_, ": the rollout's mean or covariance is not finite"));
+  }
+  result.model_version = model_version_;
+  return result;
 }
 
 absl::Status Session::CheckPlanShape(const plan::Plan& plan, bool model_free) const {

@@ -19,6 +19,7 @@
 #include "absl/synchronization/mutex.h"
 #include "server/gp/dynamics_model.h"
 #include "server/plan/planner.h"
+#include "server/plan/rollout.h"
 #include "server/session/labels.h"
 #include "server/session/learning_history.h"
 #include "server/session/memory_budget.h"
@@ -50,6 +51,12 @@ struct TransitionRows {
 struct Prediction {
   Eigen::MatrixXd mean;
   Eigen::MatrixXd variance;
+  int64_t model_version = 0;
+};
+
+// One Session::Rollout: the propagated state distribution and the model version.
+struct RolloutResult {
+  plan::PropagatedTrajectory trajectory;
   int64_t model_version = 0;
 };
 
@@ -238,6 +245,17 @@ class Session {
                                      Clock::time_point refit_deadline,
                                      Clock::time_point deadline,
                                      std::function<bool()> cancelled);
+
+  // The state distribution from x_0 ~ N(state, diag(state_variance)) along
+  // `inputs` (steps x input_dim; shapes and values checked by the caller),
+  // propagated by plan::PropagateLinearised; with `include_noise` each step adds
+  // the observation noise (a measured state's distribution). Refits first like
+  // Predict (same errors); INTERNAL if the propagation is not finite.
+  absl::StatusOr<RolloutResult> Rollout(const Eigen::VectorXd& state,
+                                        const Eigen::VectorXd& state_variance,
+                                        const Eigen::MatrixXd& inputs, bool include_noise,
+                                        Clock::time_point refit_deadline,
+                                        std::function<bool()> cancelled);
 
   // Plans from `state` (state_dim entries, checked by the caller) within
   // `deadline`, polling `cancelled`. DEADLINE_EXCEEDED if the deadline passed

@@ -275,6 +275,27 @@ def test_history_holds_plans_and_the_learning_curve(client):
     session.delete()
 
 
+def test_rollout_returns_the_propagated_trajectory(client):
+    session = client.create_session(linear_config())
+    x, u, x_next, _, _ = linear_data(30, seed=9)
+    session.add(x, u, x_next)
+    plan = session.plan([0.1, -0.1])
+    rolled = session.rollout([0.1, -0.1], plan.inputs, state_variance=[1e-4, 2e-4])
+    assert isinstance(rolled, excite.Rollout)
+    steps = plan.inputs.shape[0]
+    assert rolled.means.shape == (steps + 1, 2) and rolled.covariances.shape == (steps + 1, 2, 2)
+    np.testing.assert_array_equal(rolled.means[0], [0.1, -0.1])
+    np.testing.assert_allclose(np.diagonal(rolled.covariances, axis1=1, axis2=2),
+                               rolled.variances)
+    # Step 1's mean is Predict's at (x_0, u_0); the plan's own states follow the mean.
+    first = session.predict(np.hstack([[0.1, -0.1], plan.inputs[0]])[None, :])
+    np.testing.assert_allclose(rolled.means[1], first.mean[0], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(rolled.means[:steps], plan.predicted_states, atol=1e-9)
+    with pytest.raises(ValueError, match="one state of 2 numbers"):
+        session.rollout([0.1], plan.inputs)
+    session.delete()
+
+
 def test_model_free_strategy_plans_without_data_or_predictions(client):
     session = client.create_session(linear_config(strategy="random", horizon=6))
     plan = session.plan([0.0, 0.0])  # no data needed

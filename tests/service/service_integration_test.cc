@@ -1071,5 +1071,68 @@ TEST_F(ServiceTest, SessionHistoryRecordsPlansBatchErrorsAndUncertainty) {
   EXPECT_EQ(history->batch_errors_size(), 0);
 }
 
+// Rollout: step 0 is the given state with its variance; step 1's mean and
+// variance are Predict's at (x_0, u_0) (plus the propagated x_0 variance);
+// every covariance is symmetric; bad requests name their field.
+TEST_F(ServiceTest, RolloutPropagatesTheStateDistribution) {
+  const std::string name = Create("rollout").name();
+  Add(name, {PendulumTransitions(40, 0, 3)});
+  v1::RolloutRequest request;
+  request.set_session(name);
+  request.add_state(0.2);
+  request.add_state(-0.4);
+  for (double u : {1.0, -1.0, 0.5}) request.add_inputs(u);
+  absl::StatusOr<v1::RolloutResponse> rolled = client_->Rollout(request);
+  ASSERT_TRUE(rolled.ok()) << rolled.status();
+  ASSERT_EQ(rolled->means_size(), 8);
+  ASSERT_EQ(rolled->covariances_size(), 16);
+  ASSERT_EQ(rolled->variances_size(), 8);
+  EXPECT_EQ(rolled->means(0), 0.2);
+  EXPECT_EQ(rolled->variances(0), 0.0);
+  v1::PredictRequest predict;
+  predict.set_session(name);
+  for (double v : {0.2, -0.4, 1.0}) predict.add_inputs(v);
+  absl::StatusOr<v1::PredictResponse> predicted = client_->Predict(predict);
+  ASSERT_TRUE(predicted.ok()) << predicted.status();
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_NEAR(rolled->means(2 + j), predicted->mean(j), 1e-12);
+    EXPECT_NEAR(rolled->variances(2 + j), predicted->variance(j),
+                1e-12 * predicted->variance(j));
+  }
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_EQ(rolled->covariances(4 * k + 1), rolled->covariances(4 * k + 2)) << k;
+    EXPECT_EQ(rolled->variances(2 * k + 1), rolled->covariances(4 * k + 3)) << k;
+    if (k > 0) {
+      EXPECT_GT(rolled->variances(2 * k), rolled->variances(2 * k - 2));
+    }
+  }
+  EXPECT_EQ(rolled->model_version(), predicted->model_version());
+
+  // An uncertain start and the observation noise only widen it.
+  request.add_state_variance(0.01);
+  request.add_state_variance(0.02);
+  request.set_include_noise(true);
+  absl::StatusOr<v1::RolloutResponse> wider = client_->Rollout(request);
+  ASSERT_TRUE(wider.ok()) << wider.status();
+  EXPECT_EQ(wider->variances(1), 0.02);
+  for (int i = 2; i < 8; ++i) EXPECT_GT(wider->variances(i), rolled->variances(i)) << i;
+
+  v1::RolloutRequest bad = request;
+  bad.set_state_variance(1, -1.0);
+  ExpectStatus(client_->Rollout(bad).status(), absl::StatusCode::kInvalidArgument,
+               "state_variance[1]");
+  bad = request;
+  bad.clear_inputs();
+  ExpectStatus(client_->Rollout(bad).status(), absl::StatusCode::kInvalidArgument,
+               "inputs: must hold 1 to 1000 steps");
+  bad = request;
+  bad.add_state(1.0);
+  ExpectStatus(client_->Rollout(bad).status(), absl::StatusCode::kInvalidArgument,
+               "state");
+  bad = request;
+  bad.set_session("sessions/nobody");
+  ExpectStatus(client_->Rollout(bad).status(), absl::StatusCode::kNotFound, "nobody");
+}
+
 }  // namespace
 }  // namespace excite::service

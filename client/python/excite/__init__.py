@@ -16,7 +16,8 @@ place, by ``/usr/bin/python3 client/python/excite/codegen.py``. Importing never
 generates anything. See client/python/README.md.
 """
 
-from excite._common import AddResult, History, Plan, Prediction, Samples, session_config
+from excite._common import (AddResult, History, Plan, Prediction, Rollout, Samples,
+                            session_config)
 from excite._pb import config_pb, pb
 from excite.client import SESSION_HEADER, Client, Session, TransitionStream
 from excite.errors import (Aborted, AlreadyExists, Cancelled, DataLoss, DeadlineExceeded,
@@ -51,6 +52,7 @@ __all__ = [
     "History",
     "Plan",
     "Prediction",
+    "Rollout",
     "Samples",
     "Session",
     "SESSION_HEADER",

@@ -103,6 +103,18 @@ class AddResult:
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
+class Rollout:
+    """The model rolled forward (Rollout RPC): x_k ~ N(means[k], covariances[k])
+    for k = 0 .. steps, row 0 the given state; variances are the diagonals.
+    First-order propagation through the GP (see RolloutResponse)."""
+
+    means: FloatArray  # (steps + 1, state_dim)
+    covariances: FloatArray  # (steps + 1, state_dim, state_dim)
+    variances: FloatArray  # (steps + 1, state_dim)
+    model_version: int
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
 class History:
     """What a session learned as it went (GetSessionHistory), oldest first, as
     arrays; the server keeps it in memory since it loaded the session.
@@ -535,6 +547,31 @@ def plan_request(name: str, state_dim: int, state: npt.ArrayLike) -> pb.PlanInpu
         raise ValueError(f"plan takes one state of {state_dim} numbers (the session's "
                          f"state_dim), got shape {x.shape}")
     return pb.PlanInputsRequest(session=name, state=x)
+
+
+def rollout_request(name: str, state_dim: int, input_dim: int, state: npt.ArrayLike,
+                    inputs: npt.ArrayLike, state_variance: Optional[npt.ArrayLike],
+                    include_noise: bool) -> pb.RolloutRequest:
+    x = np.asarray(state, dtype=np.float64)
+    if x.shape != (state_dim,):
+        raise ValueError(f"rollout: state must be one state of {state_dim} numbers, "
+                         f"got shape {x.shape}")
+    u = rows(inputs, input_dim, "inputs")
+    request = pb.RolloutRequest(session=name, state=x, inputs=u.ravel(),
+                                include_noise=include_noise)
+    if state_variance is not None:
+        request.state_variance.extend(np.asarray(state_variance, dtype=np.float64).ravel())
+    return request
+
+
+def rollout(reply: pb.RolloutResponse, state_dim: int) -> Rollout:
+    means = np.asarray(reply.means, dtype=np.float64).reshape(-1, state_dim)
+    return Rollout(
+        means=means,
+        covariances=np.asarray(reply.covariances, dtype=np.float64).reshape(
+            -1, state_dim, state_dim),
+        variances=np.asarray(reply.variances, dtype=np.float64).reshape(-1, state_dim),
+        model_version=int(reply.model_version))
 
 
 def plan(reply: pb.PlanInputsResponse, state_dim: int, input_dim: int) -> Plan:

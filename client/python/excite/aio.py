@@ -33,7 +33,7 @@ import numpy.typing as npt
 
 from excite import _common
 from excite._common import (AddResult, ArchiveLike, ConfigLike, History, Plan, Prediction,
-                            Samples)
+                            Rollout, Samples)
 from excite._pb import config_pb, pb, pb_grpc
 from excite.errors import AioCheckedStub
 
@@ -232,6 +232,16 @@ class Session(_common.SessionView):
             request, timeout=self.client.plan_timeout_s, metadata=self.metadata)
         return _common.plan(reply, self.state_dim, self.input_dim)
 
+    async def rollout(self, state: npt.ArrayLike, inputs: npt.ArrayLike, *,
+                      state_variance: Optional[npt.ArrayLike] = None,
+                      include_noise: bool = False) -> Rollout:
+        """The model rolled forward (see :meth:`excite.Session.rollout`)."""
+        request = _common.rollout_request(self.name, self.state_dim, self.input_dim, state,
+                                          inputs, state_variance, include_noise)
+        reply = await self.client._calls.Rollout(request, timeout=self.client.timeout_s,
+                                                 metadata=self.metadata)
+        return _common.rollout(reply, self.state_dim)
+
     async def history(self) -> History:
         """The plans and learning curve so far (see :meth:`excite.Session.history`)."""
         reply = await self.client._calls.GetSessionHistory(
@@ -244,4 +254,5 @@ class Session(_common.SessionView):
         return _common.samples(await self.client.export_session(self.name))
 
 
-__all__ = ["Client", "Session", "AddResult", "History", "Plan", "Prediction", "Samples"]
+__all__ = ["Client", "Session", "AddResult", "History", "Plan", "Prediction", "Rollout",
+           "Samples"]

@@ -26,6 +26,7 @@ from excite._common import (  # noqa: F401  (re-exported: excite.client.X still 
     ArchiveLike,
     ConfigLike,
     History,
+    Rollout,
     Plan,
     Prediction,
     Samples,
@@ -293,6 +294,19 @@ class Session(_common.SessionView):
         reply = self.client.stub.PlanInputs(request, timeout=self.client.plan_timeout_s,
                                             metadata=self.metadata)
         return _common.plan(reply, self.state_dim, self.input_dim)
+
+    def rollout(self, state: npt.ArrayLike, inputs: npt.ArrayLike, *,
+                state_variance: Optional[npt.ArrayLike] = None,
+                include_noise: bool = False) -> Rollout:
+        """The model rolled forward from `state` along `inputs` ((steps, input_dim),
+        e.g. ``plan.inputs``): the mean trajectory and each step's covariance
+        (:class:`Rollout`). `state_variance`: x_0's variance per dimension;
+        `include_noise`: the distribution of measured rather than true states."""
+        request = _common.rollout_request(self.name, self.state_dim, self.input_dim, state,
+                                          inputs, state_variance, include_noise)
+        reply = self.client.stub.Rollout(request, timeout=self.client.timeout_s,
+                                         metadata=self.metadata)
+        return _common.rollout(reply, self.state_dim)
 
     def history(self) -> History:
         """The session's plans and learning curve so far (:class:`History`)."""
