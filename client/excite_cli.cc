@@ -102,6 +102,7 @@ constexpr char kUsage[] =
     "  sessions delete NAME\n"
     "  predict NAME --z='x1,..,u1,..[,x1,..]' [--include_noise]\n"
     "  plan NAME --state='x1,x2,...'\n"
+    "  history NAME      (plans and the learning curve the server kept)\n"
     "  add NAME [FILE] [--header=auto|yes|no]\n"
     "                    (CSV x0..,u0..,x0_next..[,sequence], as excite-sim\n"
     "                    --trajectory writes it; stdin without FILE)\n"
@@ -523,12 +524,68 @@ size_t EditDistance(absl::string_view a, absl::string_view b) {
   return row[b.size()];
 }
 
+// The last record of each series and the counts: what a person checks first.
+int History(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
+  int exit_code = 0;
+  const std::string name = SessionArgument(args, &exit_code);
+  if (name.empty()) return exit_code;
+  absl::StatusOr<excite::v1::SessionHistory> history = client.GetSessionHistory(name);
+  if (!history.ok()) return Fail(history.status());
+  if (Json()) {
+    PrintJson(*history);
+    return 0;
+  }
+  absl::StatusOr<excite::v1::Session> session = client.GetSession(name);
+  const int dx = session.ok() ? session->config().state_dim() : 0;
+  if (session.ok()) {
+    std::printf("per state dimension: %s\n",
+                DimensionNames(session->config().state_names(),
+                               session->config().state_units(), dx, "x")
+                    .c_str());
+  }
+  std::printf("%d plans", history->plans_size());
+  if (!history->plans().empty()) {
+    const excite::v1::PlanRecord& last = *history->plans().rbegin();
+    int limited = 0;
+    for (const excite::v1::PlanRecord& p : history->plans()) {
+      limited += p.solver_status() == excite::v1::SOLVER_STATUS_TIME_LIMIT;
+    }
+    std::printf(
+        "; the last at %lld samples, objective %.6g, %.1f ms; %d hit the time limit",
+        static_cast<long long>(last.sample_count()), last.objective(),
+        last.wall_time_ms(), limited);
+  }
+  std::printf("\n");
+  std::printf("%4s | %-*s | %s\n", "n", 11 * dx - 1, "one-step RMSE of the next batch",
+              "mean std over the region");
+  // Rows at the samples of the uncertainty records, with the batch error nearest
+  // before each (the two series are recorded at different times).
+  const auto& errors = history->batch_errors();
+  int e = 0;
+  for (const excite::v1::UncertaintyRecord& u : history->uncertainty()) {
+    while (e + 1 < errors.size() && errors[e + 1].sample_count() <= u.sample_count()) ++e;
+    const bool has_error =
+        !errors.empty() && errors[e].sample_count() <= u.sample_count();
+    std::printf("%4lld | %-*s | %s\n", static_cast<long long>(u.sample_count()),
+                11 * dx - 1, has_error ? Row(errors[e].rmse(), 0, dx).c_str() : "-",
+                Row(u.mean_std(), 0, dx).c_str());
+  }
+  if (history->uncertainty().empty()) {
+    for (const excite::v1::BatchError& error : errors) {
+      std::printf("%4lld | %s | -\n", static_cast<long long>(error.sample_count()),
+                  Row(error.rmse(), 0, dx).c_str());
+    }
+  }
+  return 0;
+}
+
 std::string UnknownCommand(const std::string& command) {
   std::string message = absl::StrCat("unknown command \"", command, "\"");
   const std::string lower = absl::AsciiStrToLower(command);
   std::string best;
   size_t best_distance = 3;  // suggest only within 2 edits
-  for (const char* known : {"sessions", "predict", "plan", "add", "export", "import"}) {
+  for (const char* known :
+       {"sessions", "predict", "plan", "history", "add", "export", "import"}) {
     const size_t d = EditDistance(lower, known);
     if (d < best_distance || absl::StartsWith(known, lower)) {
       best_distance = std::min(d, best_distance);
@@ -575,5 +632,6 @@ int main(int argc, char** argv) {
   if (command == "add") return Add(*client, args);
   if (command == "predict") return Predict(*client, args);
   if (command == "plan") return Plan(*client, args);
+  if (command == "history") return History(*client, args);
   return UsageError(UnknownCommand(command));
 }

@@ -231,7 +231,9 @@ TEST_F(EndToEndTest, CliExportsAndImportsASession) {
       << ReadFileOrEmpty(sim_err_);
   // --trajectory: a header and one row per stored transition, numbered from 0.
   const std::string rows = ReadFileOrEmpty(trajectory);
-  EXPECT_EQ(rows.rfind("x0,x1,u0,x0_next,x1_next,sequence\n", 0), 0u) << rows;
+  // The header names the columns as the config names the dimensions.
+  EXPECT_EQ(rows.rfind("theta,theta_dot,tau,theta_next,theta_dot_next,sequence\n", 0), 0u)
+      << rows;
   EXPECT_EQ(std::count(rows.begin(), rows.end(), '\n'), 13) << rows;
   EXPECT_NE(rows.find(",0\n"), std::string::npos) << rows;
   EXPECT_NE(rows.find(",11\n"), std::string::npos) << rows;
@@ -405,6 +407,15 @@ TEST_F(EndToEndTest, CliDoesAFirstWorkflowAlone) {
   ASSERT_EQ(RunCli({"plan", "--session=first", "--state=0,0"}, &out, &err), 0) << err;
   EXPECT_EQ(RunCli({"plan", "first", "--session=other", "--state=0,0"}, &out, &err), 2);
   EXPECT_NE(err.find("the session is given twice"), std::string::npos) << err;
+  // The history: both plans, the learning curve from the first fit on.
+  ASSERT_EQ(RunCli({"history", "first"}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("2 plans; the last at 40 samples"), std::string::npos) << out;
+  EXPECT_NE(out.find("per state dimension: theta [rad], theta_dot [rad/s]"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("  40 | "), std::string::npos) << out;  // mean std at the first fit
+  ASSERT_EQ(RunCli({"--output=json", "history", "first"}, &out, &err), 0) << err;
+  EXPECT_EQ(out.rfind("{\"plans\":[", 0), 0u) << out;
   // A typo gets a suggestion; the version says what was built.
   EXPECT_EQ(RunCli({"pridict", "first"}, &out, &err), 2);
   EXPECT_NE(err.find("unknown command \"pridict\" (did you mean predict?)"),
