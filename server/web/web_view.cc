@@ -247,6 +247,22 @@ absl::StatusOr<std::unique_ptr<WebView>> WebView::Start(
     if (!status.ok()) return fail(res, status);
     SendMessage(res, response);
   });
+  http.Post(R"(/api/sessions/([a-z0-9-]{1,63})/rollout)", [stub, fail](
+                                                              const httplib::Request& req,
+                                                              httplib::Response& res) {
+    v1::RolloutRequest request;
+    google::protobuf::util::JsonParseOptions parse;
+    if (auto s = google::protobuf::util::JsonStringToMessage(req.body, &request, parse);
+        !s.ok()) {
+      return SendError(res, grpc::StatusCode::INVALID_ARGUMENT,
+                       "the body is not a RolloutRequest in JSON: " + s.ToString());
+    }
+    request.set_session(absl::StrCat("sessions/", req.matches[1].str()));
+    v1::RolloutResponse response;
+    const grpc::Status status = stub->Rollout(CallContext().get(), request, &response);
+    if (!status.ok()) return fail(res, status);
+    SendMessage(res, response);
+  });
   http.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
     if (res.status == 404 && res.body.empty()) {
       SendError(res, grpc::StatusCode::NOT_FOUND,

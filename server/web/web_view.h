@@ -37,6 +37,7 @@ struct WebViewOptions {
 //   GET  /api/sessions/ID/history      GetSessionHistory (plans, learning curve)
 //   GET  /api/sessions/ID/archive      ExportSession (samples with timestamps)
 //   POST /api/sessions/ID/predict      Predict; body: a PredictRequest as JSON
+//   POST /api/sessions/ID/rollout      Rollout; body: a RolloutRequest as JSON
 // in protobuf's JSON mapping. Errors: {"code": "NOT_FOUND", "message": ...} with
 // the HTTP status of Google's API mapping (400, 401, 404, 429, 503, ...).
 // cpp-httplib (Debian's libcpp-httplib) with a pool of worker threads.

@@ -148,7 +148,8 @@ def nice_log(ticks):
         t / 10 ** math.floor(math.log10(t) + 1e-9))) < 1e-6 for t in ticks)
 
 
-PLOTS = ("plot-curve", "plot-states", "plot-std", "plot-objective", "plot-samples")
+PLOTS = ("plot-curve", "plot-states", "plot-std", "plot-rollout", "plot-objective",
+         "plot-samples")
 
 
 def test_the_page_shows_the_running_session_and_updates(exploring, browser):
@@ -206,6 +207,12 @@ def test_the_page_shows_the_running_session_and_updates(exploring, browser):
     status, hist = get(f"{base}/api/sessions/{session_id}/history", TOKEN)
     assert status == 200 and len(hist["plans"]) >= 1 and len(hist["batch_errors"]) >= 3
     assert 1 <= int(data(browser, "plot-objective", "series")) <= len(hist["plans"])
+
+    # The latest plan rolled out: a band that widens from 0 at the plan's first state.
+    wait_for("the rollout band", lambda: int(data(browser, "plot-rollout", "series") or 0) > 1)
+    band = data(browser, "plot-rollout", "band")
+    assert band[0] == 0 and band[-1] > 0, band
+    assert data(browser, "plot-rollout", "ylabel") == "theta [rad]"
 
     # Lengthscales labelled by kernel input (the angle's sine and cosine) and
     # flagged exactly where the server says the fit left them at a bound.

@@ -16,6 +16,8 @@ const view = {
   archiveKey: '',
   history: null,
   historyKey: '',
+  rollout: null,
+  rolloutKey: '',
   std: null,
   stdKey: '',
   fixedFor: '',
@@ -38,7 +40,8 @@ function readHash() {
 function select(id) {
   if (id === view.selected) return;
   Object.assign(view, {selected: id, session: null, archive: null, archiveKey: '', history: null,
-                       historyKey: '', std: null, stdKey: '', fixedFor: ''});
+                       historyKey: '', rollout: null, rolloutKey: '', std: null, stdKey: '',
+                       fixedFor: ''});
   history.replaceState(null, '', '#session=' + encodeURIComponent(id));
   refresh();
 }
@@ -472,6 +475,37 @@ function drawCurve(hist, dims, stateDim) {
   canvas.dataset.uncertainty = String(stds.length);
 }
 
+// The latest plan rolled out by the server (Rollout): the selected output's mean
+// and +- 2 standard deviations over the plan's steps.
+function drawRollout(rolled, dims, stateDim, out) {
+  const canvas = $('plot-rollout');
+  if (!rolled || !rolled.means || !rolled.means.length) return message(canvas, 'no model-based plan yet');
+  const steps = rolled.means.length / stateDim;
+  const pts = [];
+  for (let k = 0; k < steps; k++) {
+    const m = rolled.means[k * stateDim + out], sd = Math.sqrt(Math.max(0, rolled.variances[k * stateDim + out]));
+    pts.push([k, m, sd]);
+  }
+  const f = frame(canvas, linearAxis(pts.map((p) => p[0]), true),
+                  linearAxis(pts.flatMap((p) => [p[1] - 2 * p[2], p[1] + 2 * p[2]])),
+                  'step of the latest plan', dims[out].label);
+  const c = COLOURS[out % COLOURS.length];
+  clipped(f, () => {
+    f.ctx.fillStyle = c;
+    f.ctx.globalAlpha = 0.18;
+    f.ctx.beginPath();
+    pts.forEach((p, i) => (i ? f.ctx.lineTo(f.sx(p[0]), f.sy(p[1] + 2 * p[2])) : f.ctx.moveTo(f.sx(p[0]), f.sy(p[1] + 2 * p[2]))));
+    for (let i = pts.length - 1; i >= 0; i--) f.ctx.lineTo(f.sx(pts[i][0]), f.sy(pts[i][1] - 2 * pts[i][2]));
+    f.ctx.closePath();
+    f.ctx.fill();
+    f.ctx.globalAlpha = 1;
+    polyline(f, pts.map((p) => [p[0], p[1]]), c);
+  });
+  legend(f, [{colour: c, text: 'predicted mean'}, {colour: 'rgba(0,0,0,0.25)', text: '\u00b1 2 std (propagated)'}]);
+  canvas.dataset.series = String(steps);
+  canvas.dataset.band = JSON.stringify(pts.map((p) => p[2]));
+}
+
 function drawObjectives(hist) {
   const canvas = $('plot-objective');
   const plans = (hist && hist.plans) || [];
@@ -621,6 +655,18 @@ async function refreshStd(s, zs, dims, axes) {
   view.stdKey = key;
 }
 
+// Rolls the latest model-based plan out on the server once per plan.
+async function refreshRollout(s) {
+  const plan = s.last_plan, dx = s.config.state_dim;
+  if (!plan || !plan.predicted_states || !plan.predicted_states.length) { view.rollout = null; return; }
+  const key = num(plan.model_version) + '|' + plan.wall_time_ms;
+  if (key === view.rolloutKey) return;
+  const id = s.name.slice('sessions/'.length);
+  view.rollout = await api(`/api/sessions/${id}/rollout`,
+                           {state: plan.predicted_states.slice(0, dx), inputs: plan.inputs});
+  view.rolloutKey = key;
+}
+
 function draw() {
   const s = view.session;
   if (!s) return;
@@ -635,6 +681,7 @@ function draw() {
   drawStd(view.std, zs, dims);
   drawCurve(view.history, dims, s.config.state_dim);
   drawObjectives(view.history);
+  drawRollout(view.rollout, dims, s.config.state_dim, Number($('output').value));
   const away = outside(zs, dims, s.config.state_dim);
   $('outside').textContent = zs.length ? `${away} of ${zs.length} samples outside the region` : '';
   return {dims, zs, axes};
@@ -671,6 +718,7 @@ async function refresh() {
         view.history = await api(`/api/sessions/${id}/history`);
         view.historyKey = planKey;
       }
+      await refreshRollout(s);
       const drawn = draw();
       await refreshStd(s, drawn.zs, drawn.dims, drawn.axes);
       drawStd(view.std, drawn.zs, drawn.dims);
