@@ -435,37 +435,30 @@ void SessionRegistry::RenewOnce() {
   }
 }
 
+absl::StatusOr<std::shared_ptr<Session>> SessionRegistry::ServedHere(
+    const std::string& id) {
+  if (!shared_) return Get(id);
+  absl::MutexLock lock(&mu_);
+  auto it = sessions_.find(id);
+  if (it != sessions_.end()) {
+    if (std::shared_ptr<Session> ready = Ready(it->second)) return ready;
+  }
+  return std::shared_ptr<Session>();
+}
+
 absl::StatusOr<SessionDescription> SessionRegistry::Describe(const std::string& id) {
-  if (!shared_) {
-    absl::StatusOr<std::shared_ptr<Session>> session = Get(id);
-    if (!session.ok()) return session.status();
-    return (*session)->Describe();
-  }
-  {
-    absl::MutexLock lock(&mu_);
-    auto it = sessions_.find(id);
-    if (it != sessions_.end()) {
-      if (std::shared_ptr<Session> ready = Ready(it->second)) return ready->Describe();
-    }
-  }
+  absl::StatusOr<std::shared_ptr<Session>> served = ServedHere(id);
+  if (!served.ok()) return served.status();
+  if (*served != nullptr) return (*served)->Describe();
   absl::StatusOr<store::SessionListing> listing = store_->ListSession(id);
   if (!listing.ok()) return listing.status();
   return Session::DescribeStored(*listing, *options_.format);
 }
 
 absl::StatusOr<LearningHistory> SessionRegistry::History(const std::string& id) {
-  if (!shared_) {
-    absl::StatusOr<std::shared_ptr<Session>> session = Get(id);
-    if (!session.ok()) return session.status();
-    return (*session)->History();
-  }
-  {
-    absl::MutexLock lock(&mu_);
-    auto it = sessions_.find(id);
-    if (it != sessions_.end()) {
-      if (std::shared_ptr<Session> ready = Ready(it->second)) return ready->History();
-    }
-  }
+  absl::StatusOr<std::shared_ptr<Session>> served = ServedHere(id);
+  if (!served.ok()) return served.status();
+  if (*served != nullptr) return (*served)->History();
   if (absl::StatusOr<store::SessionListing> listing = store_->ListSession(id);
       !listing.ok()) {
     return listing.status();

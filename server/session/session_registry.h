@@ -140,6 +140,9 @@ class SessionRegistry {
 
   SessionRegistry(store::SessionStore* store, RegistryOptions options);
   absl::Status LoadAll();
+  // Exclusive store: Get(id). Shared store: the session if this replica serves it
+  // and it is ready, else null (never takes a lease).
+  absl::StatusOr<std::shared_ptr<Session>> ServedHere(const std::string& id);
   // The session if loaded, fresh and its lease trusted; else null.
   std::shared_ptr<Session> Ready(const Loaded& loaded) const
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);

@@ -202,67 +202,57 @@ absl::StatusOr<std::unique_ptr<WebView>> WebView::Start(
              }
              SendMessage(res, all);
            });
-  http.Get(R"(/api/sessions/([a-z0-9-]{1,63}))", [stub, fail](const httplib::Request& req,
-                                                              httplib::Response& res) {
-    v1::GetSessionRequest request;
-    request.set_name(absl::StrCat("sessions/", req.matches[1].str()));
-    v1::Session response;
-    const grpc::Status status = stub->GetSession(CallContext().get(), request, &response);
-    if (!status.ok()) return fail(res, status);
-    SendMessage(res, response);
-  });
-  http.Get(R"(/api/sessions/([a-z0-9-]{1,63})/history)",
-           [stub, fail](const httplib::Request& req, httplib::Response& res) {
-             v1::GetSessionHistoryRequest request;
-             request.set_name(absl::StrCat("sessions/", req.matches[1].str()));
-             v1::SessionHistory response;
-             const grpc::Status status =
-                 stub->GetSessionHistory(CallContext().get(), request, &response);
-             if (!status.ok()) return fail(res, status);
-             SendMessage(res, response);
-           });
-  http.Get(R"(/api/sessions/([a-z0-9-]{1,63})/archive)",
-           [stub, fail](const httplib::Request& req, httplib::Response& res) {
-             v1::ExportSessionRequest request;
-             request.set_name(absl::StrCat("sessions/", req.matches[1].str()));
-             v1::SessionArchive response;
-             const grpc::Status status =
-                 stub->ExportSession(CallContext().get(), request, &response);
-             if (!status.ok()) return fail(res, status);
-             SendMessage(res, response);
-           });
-  http.Post(R"(/api/sessions/([a-z0-9-]{1,63})/predict)", [stub, fail](
-                                                              const httplib::Request& req,
-                                                              httplib::Response& res) {
-    v1::PredictRequest request;
-    google::protobuf::util::JsonParseOptions parse;
-    if (auto s = google::protobuf::util::JsonStringToMessage(req.body, &request, parse);
-        !s.ok()) {
-      return SendError(res, grpc::StatusCode::INVALID_ARGUMENT,
-                       "the body is not a PredictRequest in JSON: " + s.ToString());
-    }
-    request.set_session(absl::StrCat("sessions/", req.matches[1].str()));
-    v1::PredictResponse response;
-    const grpc::Status status = stub->Predict(CallContext().get(), request, &response);
-    if (!status.ok()) return fail(res, status);
-    SendMessage(res, response);
-  });
-  http.Post(R"(/api/sessions/([a-z0-9-]{1,63})/rollout)", [stub, fail](
-                                                              const httplib::Request& req,
-                                                              httplib::Response& res) {
-    v1::RolloutRequest request;
-    google::protobuf::util::JsonParseOptions parse;
-    if (auto s = google::protobuf::util::JsonStringToMessage(req.body, &request, parse);
-        !s.ok()) {
-      return SendError(res, grpc::StatusCode::INVALID_ARGUMENT,
-                       "the body is not a RolloutRequest in JSON: " + s.ToString());
-    }
-    request.set_session(absl::StrCat("sessions/", req.matches[1].str()));
-    v1::RolloutResponse response;
-    const grpc::Status status = stub->Rollout(CallContext().get(), request, &response);
-    if (!status.ok()) return fail(res, status);
-    SendMessage(res, response);
-  });
+  // GET /api/sessions/ID[/what]: the call on "sessions/ID".
+  // Each request gets its own messages (workers run handlers concurrently).
+  const auto get = [&http, stub](const std::string& what, auto call, auto request_type,
+                                 auto response_type) {
+    http.Get(absl::StrCat(R"(/api/sessions/([a-z0-9-]{1,63}))", what),
+             [stub, call](const httplib::Request& req, httplib::Response& res) {
+               decltype(request_type) request;
+               decltype(response_type) response;
+               request.set_name(absl::StrCat("sessions/", req.matches[1].str()));
+               const grpc::Status status =
+                   ((*stub).*call)(CallContext().get(), request, &response);
+               if (!status.ok())
+                 return SendError(res, status.error_code(), status.error_message());
+               SendMessage(res, response);
+             });
+  };
+  get("", &v1::ExplorationService::Stub::GetSession, v1::GetSessionRequest(),
+      v1::Session());
+  get("/history", &v1::ExplorationService::Stub::GetSessionHistory,
+      v1::GetSessionHistoryRequest(), v1::SessionHistory());
+  get("/archive", &v1::ExplorationService::Stub::ExportSession,
+      v1::ExportSessionRequest(), v1::SessionArchive());
+  // POST /api/sessions/ID/what: the body the call's request in JSON, its session
+  // "sessions/ID".
+  const auto post = [&http, stub](const std::string& what, auto call, auto request_type,
+                                  auto response_type) {
+    http.Post(absl::StrCat(R"(/api/sessions/([a-z0-9-]{1,63})/)", what),
+              [stub, call](const httplib::Request& req, httplib::Response& res) {
+                decltype(request_type) request;
+                decltype(response_type) response;
+                google::protobuf::util::JsonParseOptions parse;
+                if (auto s = google::protobuf::util::JsonStringToMessage(req.body,
+                                                                         &request, parse);
+                    !s.ok()) {
+                  return SendError(
+                      res, grpc::StatusCode::INVALID_ARGUMENT,
+                      absl::StrCat("the body is not a ", request.GetDescriptor()->name(),
+                                   " in JSON: ", s.ToString()));
+                }
+                request.set_session(absl::StrCat("sessions/", req.matches[1].str()));
+                const grpc::Status status =
+                    ((*stub).*call)(CallContext().get(), request, &response);
+                if (!status.ok())
+                  return SendError(res, status.error_code(), status.error_message());
+                SendMessage(res, response);
+              });
+  };
+  post("predict", &v1::ExplorationService::Stub::Predict, v1::PredictRequest(),
+       v1::PredictResponse());
+  post("rollout", &v1::ExplorationService::Stub::Rollout, v1::RolloutRequest(),
+       v1::RolloutResponse());
   http.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
     if (res.status == 404 && res.body.empty()) {
       SendError(res, grpc::StatusCode::NOT_FOUND,
