@@ -14,7 +14,6 @@
 #include <fstream>
 #include <memory>
 #include <optional>
-#include <regex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -317,9 +316,10 @@ TEST_F(EndToEndTest, SimSaysWhatAnInterruptLeavesBehind) {
       std::string::npos)
       << err;
   ASSERT_EQ(RunCli({"sessions", "get", "ctrl-c"}, &out, &cli_err), 0) << cli_err;
-  std::smatch kept;
-  ASSERT_TRUE(std::regex_search(out, kept, std::regex(R"(sample_count: (\d+))"))) << out;
-  const int held = std::stoi(kept[1].str());
+  // (No std::regex: GCC 12 warns inside it under the sanitizers' build.)
+  const size_t at = out.find("sample_count: ");
+  ASSERT_NE(at, std::string::npos) << out;
+  const int held = std::stoi(out.substr(at + 14));
   // --resume continues it: its samples stay, new ones are numbered after them.
   ASSERT_EQ(
       RunSim({"--session_id=ctrl-c", "--resume", absl::StrCat("--samples=", held + 8)},
