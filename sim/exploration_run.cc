@@ -121,7 +121,6 @@ class ExplorationRun {
   // A transition's sequence number is sequence_offset_ + its sample index
   // (resume_session: after the stored ones).
   int64_t sequence_offset_ = 0;
-  bool resumed_ = false;
   std::string strategy_name_;
   double start_unix_s_ = 0.0;
   std::vector<double> plan_ms_;
@@ -287,7 +286,6 @@ absl::StatusOr<v1::Session> ExplorationRun::Resume() {
   }
   // The stored samples used one measurement each, and the first state one.
   for (int64_t k = 0; k < (samples_ + 1) * dx_; ++k) noise_random_.Normal();
-  resumed_ = true;
   if (options_.log != nullptr) {
     *options_.log << "resuming " << name << " at " << samples_ << " samples\n";
   }
@@ -322,7 +320,7 @@ absl::Status ExplorationRun::Explore() {
   if (options_.uniform_design) return ExploreUniformly();
   const int64_t target = config_.samples();
 
-  if (resumed_) {
+  if (options_.resume_session) {
     y_ = x_;  // the stored measurement; the plant continues from it
   } else {
     x_ = Eigen::VectorXd::Zero(dx_);

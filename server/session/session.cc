@@ -492,8 +492,8 @@ absl::StatusOr<AddResult> Session::AddSamples(
                                                 "failed: ",
                                                 added.message()));
       }
+      RecordUncertaintyIfDue();
     }
-    if (n > 0) RecordUncertaintyIfDue();
     result.stored = inserted->stored_count;
     result.duplicates = inserted->duplicate_count;
     SettleBudget();  // all duplicates: nothing added
