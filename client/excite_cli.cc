@@ -6,7 +6,8 @@
 //                          [--labels KEY=VALUE,...]
 //   excite sessions delete NAME
 //   excite predict NAME --z 'x1,..,u1,..[,x1,..]' [--include_noise]
-//   excite plan NAME --state 'x1,x2,..'
+//   excite plan NAME --state 'x1,x2,..' [--pending_inputs 'u1,..']
+//   excite rollout NAME --state 'x1,x2,..' --inputs 'u1,..' [--include_noise]
 //   excite add NAME [FILE]
 //   excite export NAME FILE
 //   excite import FILE [--id ID]
@@ -31,6 +32,7 @@
 // 2 on a usage error.
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -67,8 +69,15 @@ ABSL_FLAG(std::string, id, "",
 ABSL_FLAG(std::string, session, "",
           "predict/plan: session NAME (the same as giving it after the command).");
 ABSL_FLAG(std::string, z, "", "predict: comma-separated z = (x, u) points, row-major.");
-ABSL_FLAG(bool, include_noise, false, "predict: add the noise variance.");
-ABSL_FLAG(std::string, state, "", "plan: comma-separated current state.");
+ABSL_FLAG(bool, include_noise, false,
+          "predict/rollout: add the noise variance (measured, not true, states).");
+ABSL_FLAG(std::string, state, "", "plan/rollout: comma-separated current state.");
+ABSL_FLAG(std::string, pending_inputs, "",
+          "plan: comma-separated inputs (row-major, input_dim per step) the plant "
+          "applies from --state before the plan starts.");
+ABSL_FLAG(std::string, inputs, "",
+          "rollout: comma-separated inputs (row-major, input_dim per step) to roll "
+          "the model along.");
 ABSL_FLAG(int, page_size, 0, "sessions list: page size (0: server default).");
 ABSL_FLAG(std::string, filter, "",
           "sessions list: only sessions whose labels match, e.g. "
@@ -101,7 +110,8 @@ constexpr char kUsage[] =
     "                  [--labels=KEY=VALUE,...]\n"
     "  sessions delete NAME\n"
     "  predict NAME --z='x1,..,u1,..[,x1,..]' [--include_noise]\n"
-    "  plan NAME --state='x1,x2,...'\n"
+    "  plan NAME --state='x1,x2,...' [--pending_inputs='u1,...']\n"
+    "  rollout NAME --state='x1,x2,...' --inputs='u1,...' [--include_noise]\n"
     "  history NAME      (plans and the learning curve the server kept)\n"
     "  add NAME [FILE] [--header=auto|yes|no]\n"
     "                    (CSV x0..,u0..,x0_next..[,sequence], as excite-sim\n"
@@ -365,11 +375,16 @@ int Plan(excite::client::ExciteClient& client, const std::vector<std::string>& a
   int exit_code = 0;
   const std::string name = SessionArgument(args, &exit_code);
   if (name.empty()) return exit_code;
-  std::vector<double> state;
+  std::vector<double> state, pending;
   if (!ParseNumbers(absl::GetFlag(FLAGS_state), &state)) {
     return UsageError("plan: --state must be comma-separated numbers");
   }
-  absl::StatusOr<excite::v1::PlanInputsResponse> plan = client.PlanInputs(name, state);
+  if (!absl::GetFlag(FLAGS_pending_inputs).empty() &&
+      !ParseNumbers(absl::GetFlag(FLAGS_pending_inputs), &pending)) {
+    return UsageError("plan: --pending_inputs must be comma-separated numbers");
+  }
+  absl::StatusOr<excite::v1::PlanInputsResponse> plan =
+      client.PlanInputs(name, state, pending);
   if (!plan.ok()) return Fail(plan.status());
   if (Json()) {
     PrintJson(*plan);
@@ -378,7 +393,11 @@ int Plan(excite::client::ExciteClient& client, const std::vector<std::string>& a
   const int horizon = plan->horizon();
   const int du = horizon > 0 ? plan->inputs_size() / horizon : 0;
   const int dx = horizon > 0 ? plan->predicted_states_size() / horizon : 0;
-  std::printf("horizon %d, apply the first %d input(s)\n", horizon, plan->apply_count());
+  std::printf("horizon %d, apply the first %d input(s)", horizon, plan->apply_count());
+  if (plan->start_step() > 0) {
+    std::printf(" after the %d pending one(s)", plan->start_step());
+  }
+  std::printf("\n");
   std::printf(
       "solver %s, %d iterations, %.1f ms, objective %.6g nats, model_version %lld\n",
       excite::v1::SolverStatus_Name(plan->solver_status()).c_str(), plan->iterations(),
@@ -393,10 +412,53 @@ int Plan(excite::client::ExciteClient& client, const std::vector<std::string>& a
   }
   std::printf("%4s | %-*s | %-*s | %s\n", "step", 11 * du - 1, "input", 11 * dx - 1,
               "predicted state", "latent variance");
-  for (int i = 0; i < horizon; ++i) {
-    std::printf("%4d | %s | %s | %s\n", i, Row(plan->inputs(), i, du).c_str(),
+  for (int i = 0; i < horizon; ++i) {  // steps counted from --state
+    std::printf("%4d | %s | %s | %s\n", plan->start_step() + i,
+                Row(plan->inputs(), i, du).c_str(),
                 Row(plan->predicted_states(), i, dx).c_str(),
                 Row(plan->predicted_variances(), i, dx).c_str());
+  }
+  return 0;
+}
+
+int Rollout(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
+  int exit_code = 0;
+  const std::string name = SessionArgument(args, &exit_code);
+  if (name.empty()) return exit_code;
+  std::vector<double> state, inputs;
+  if (!ParseNumbers(absl::GetFlag(FLAGS_state), &state) ||
+      !ParseNumbers(absl::GetFlag(FLAGS_inputs), &inputs)) {
+    return UsageError("rollout: --state and --inputs must be comma-separated numbers");
+  }
+  excite::v1::RolloutRequest request;
+  request.set_session(name);
+  request.mutable_state()->Add(state.begin(), state.end());
+  request.mutable_inputs()->Add(inputs.begin(), inputs.end());
+  request.set_include_noise(absl::GetFlag(FLAGS_include_noise));
+  absl::StatusOr<excite::v1::RolloutResponse> rolled = client.Rollout(request);
+  if (!rolled.ok()) return Fail(rolled.status());
+  if (Json()) {
+    PrintJson(*rolled);
+    return 0;
+  }
+  const int dx = static_cast<int>(state.size());
+  const int steps = dx > 0 ? rolled->means_size() / dx : 0;
+  std::string names = "";
+  if (absl::StatusOr<excite::v1::Session> session = client.GetSession(name);
+      session.ok()) {
+    const excite::v1::SessionConfig& c = session->config();
+    names = DimensionNames(c.state_names(), c.state_units(), dx, "x");
+  }
+  std::printf("model_version %lld; state: %s\n",
+              static_cast<long long>(rolled->model_version()), names.c_str());
+  std::printf("%4s | %-*s | %s\n", "step", 11 * dx - 1, "mean", "standard deviation");
+  for (int k = 0; k < steps; ++k) {
+    std::string sd;
+    for (int d = 0; d < dx; ++d) {
+      absl::StrAppendFormat(&sd, "%s%10.4g", d > 0 ? " " : "",
+                            std::sqrt(std::max(0.0, rolled->variances(k * dx + d))));
+    }
+    std::printf("%4d | %s | %s\n", k, Row(rolled->means(), k, dx).c_str(), sd.c_str());
   }
   return 0;
 }
@@ -585,7 +647,7 @@ std::string UnknownCommand(const std::string& command) {
   std::string best;
   size_t best_distance = 3;  // suggest only within 2 edits
   for (const char* known :
-       {"sessions", "predict", "plan", "history", "add", "export", "import"}) {
+       {"sessions", "predict", "plan", "rollout", "history", "add", "export", "import"}) {
     const size_t d = EditDistance(lower, known);
     if (d < best_distance || absl::StartsWith(known, lower)) {
       best_distance = std::min(d, best_distance);
@@ -632,6 +694,7 @@ int main(int argc, char** argv) {
   if (command == "add") return Add(*client, args);
   if (command == "predict") return Predict(*client, args);
   if (command == "plan") return Plan(*client, args);
+  if (command == "rollout") return Rollout(*client, args);
   if (command == "history") return History(*client, args);
   return UsageError(UnknownCommand(command));
 }

@@ -276,10 +276,12 @@ absl::StatusOr<v1::PredictResponse> ExciteClient::Predict(
 }
 
 absl::StatusOr<v1::PlanInputsResponse> ExciteClient::PlanInputs(
-    const std::string& session, const std::vector<double>& state) {
+    const std::string& session, const std::vector<double>& state,
+    const std::vector<double>& pending_inputs) {
   v1::PlanInputsRequest request;
   request.set_session(session);
-  for (double x : state) request.add_state(x);
+  request.mutable_state()->Add(state.begin(), state.end());
+  request.mutable_pending_inputs()->Add(pending_inputs.begin(), pending_inputs.end());
   return Unary(&v1::ExplorationService::Stub::PlanInputs, request, session,
                options_.plan_deadline, Resend::kAfterLostAnswer);
 }

@@ -124,8 +124,11 @@ class ExciteClient {
       const std::string& session,
       std::chrono::milliseconds deadline = std::chrono::hours(24 * 365));
   absl::StatusOr<v1::PredictResponse> Predict(const v1::PredictRequest& request);
-  absl::StatusOr<v1::PlanInputsResponse> PlanInputs(const std::string& session,
-                                                    const std::vector<double>& state);
+  // `pending_inputs`: row-major, the inputs the plant applies from `state` before
+  // the plan starts (PlanInputsRequest.pending_inputs); empty for none.
+  absl::StatusOr<v1::PlanInputsResponse> PlanInputs(
+      const std::string& session, const std::vector<double>& state,
+      const std::vector<double>& pending_inputs = {});
   // The session "sessions/{id}" as a self-contained archive (see
   // WriteSessionArchiveFile).
   absl::StatusOr<v1::SessionArchive> ExportSession(const std::string& name);

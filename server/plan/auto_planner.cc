@@ -45,8 +45,12 @@ void AutoPlanner::ScorePending(const Eigen::VectorXd& x0, int64_t time_index) {
 absl::StatusOr<Plan> AutoPlanner::PlanInputs(const gp::DynamicsPredictor& model,
                                              const Eigen::VectorXd& x0,
                                              int64_t time_index, const PlanLimits& limits,
-                                             PlanSummary* summary) {
-  ScorePending(x0, time_index);
+                                             bool x0_measured, PlanSummary* summary) {
+  if (x0_measured) {
+    ScorePending(x0, time_index);
+  } else {
+    pending_.reset();
+  }
   const uint64_t call = calls_++;
   const Eigen::VectorXd probabilities = bandit_.Probabilities();
   const int member = bandit_.Draw(CounterUniform(seed_, kAutoStream, 0, call));
@@ -66,12 +70,15 @@ absl::StatusOr<Plan> AutoPlanner::PlanInputs(const gp::DynamicsPredictor& model,
     plan->states = rollout.states;
     plan->variances = rollout.variances;
   }
-  // The first transition's predicted mean, with the model as it is now.
-  Eigen::MatrixXd z0(1, model.z_dim());
-  z0 << x0.transpose(), plan->inputs.row(0);
-  Eigen::MatrixXd mean;
-  model.Predict(z0, &mean, nullptr, nullptr, nullptr);
-  pending_ = Pending{member, probabilities(member), time_index, mean.row(0).transpose()};
+  if (x0_measured) {
+    // The first transition's predicted mean, with the model as it is now.
+    Eigen::MatrixXd z0(1, model.z_dim());
+    z0 << x0.transpose(), plan->inputs.row(0);
+    Eigen::MatrixXd mean;
+    model.Predict(z0, &mean, nullptr, nullptr, nullptr);
+    pending_ =
+        Pending{member, probabilities(member), time_index, mean.row(0).transpose()};
+  }
   local.planned_by = members_[static_cast<size_t>(member)];
   if (summary != nullptr) *summary = local;
   return plan;

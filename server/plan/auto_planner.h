@@ -25,14 +25,16 @@ inline constexpr double kAutoGamma = 0.1;
 // sample later, its state is the plant's answer to that input, and the member is
 // paid by the model's one-step error on that transition, predicted before the
 // transition existed (SurpriseScale): members are paid for taking the plant
-// where the model is wrong, which needs no ground truth. Not thread-safe.
+// where the model is wrong, which needs no ground truth. A predicted x0 (the
+// plant runs ahead of the plans) neither pays nor is paid. Not thread-safe.
 class AutoPlanner {
  public:
   explicit AutoPlanner(const PlanOptions& options);
 
   absl::StatusOr<Plan> PlanInputs(const gp::DynamicsPredictor& model,
                                   const Eigen::VectorXd& x0, int64_t time_index,
-                                  const PlanLimits& limits, PlanSummary* summary);
+                                  const PlanLimits& limits, bool x0_measured,
+                                  PlanSummary* summary);
 
   const std::vector<Strategy>& members() const { return members_; }
   Eigen::VectorXd Probabilities() const { return bandit_.Probabilities(); }

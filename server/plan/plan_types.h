@@ -85,6 +85,18 @@ struct PlanLimits {
   std::function<bool()> cancelled;
 };
 
+// What the caller knows of the plan's start beyond x0 and its time index.
+struct PlanStart {
+  // x0 was measured. False when it is the model's prediction after inputs the
+  // plant has committed to: auto then scores no member on it.
+  bool measured = true;
+  // Steps from the previous plan's first input to this plan's first input, when
+  // the caller knows them (the plant ran ahead of the plans): the warm start is
+  // the previous plan shifted by as many. Unknown: by its apply_count, the steps
+  // a lock-step plant applies.
+  std::optional<int64_t> steps_since_previous;
+};
+
 enum class PlanStatus { kConverged, kTimeLimit, kIterationLimit, kNotConverged };
 
 struct Plan {

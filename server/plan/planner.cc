@@ -34,7 +34,8 @@ Planner::~Planner() = default;
 
 absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
                                          const Eigen::VectorXd& x0, int64_t time_index,
-                                         const PlanLimits& limits, PlanSummary* summary) {
+                                         const PlanLimits& limits, PlanSummary* summary,
+                                         const PlanStart& start) {
   const gp::ScopedFlushDenormals flush;  // Ipopt's and the model's arithmetic
   const Clock::time_point begin = Clock::now();
   const int dx = model.state_dim();
@@ -69,7 +70,7 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
   absl::StatusOr<Plan> plan;
   if (strategy.method == PlanMethod::kBandit) {
     if (auto_ == nullptr) auto_ = std::make_unique<AutoPlanner>(options_);
-    plan = auto_->PlanInputs(model, x0, time_index, limits, &local);
+    plan = auto_->PlanInputs(model, x0, time_index, limits, start.measured, &local);
   } else if (strategy.method == PlanMethod::kSignal) {
     plan = PlanSignal(strategy, dx, time_index);
     local.status = PlanStatus::kConverged;
@@ -80,7 +81,7 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
     std::mt19937_64 rng(seq);
     plan = PlanSeparated(model, x0, options_, rng(), stop, &local);
   } else {
-    plan = PlanTrajectory(strategy, model, x0, call, stop, &local);
+    plan = PlanTrajectory(strategy, model, x0, call, stop, start, &local);
   }
   if (!plan.ok()) return plan.status();
   local.wall_time_ms =
@@ -103,6 +104,7 @@ absl::StatusOr<Plan> Planner::PlanTrajectory(const StrategyInfo& strategy,
                                              const gp::DynamicsPredictor& model,
                                              const Eigen::VectorXd& x0, uint64_t call,
                                              const std::function<bool()>& stop,
+                                             const PlanStart& start,
                                              PlanSummary* summary) {
   absl::StatusOr<std::unique_ptr<ShootingObjective>> objective =
       strategy.make_objective(model, options_, &reference_);
@@ -114,16 +116,20 @@ absl::StatusOr<Plan> Planner::PlanTrajectory(const StrategyInfo& strategy,
       strategy.fixed_horizon > 0 ? strategy.fixed_horizon : options_.horizon;
   const int apply_count = strategy.apply_all ? horizon : 1;
 
-  // Starts: warm start (previous plan shifted by its apply_count, padded with
-  // its last input), a mid-bound start on the first call, then random ones.
+  // Starts: warm start (previous plan shifted by the steps the plant moved on,
+  // padded with its last input), a mid-bound start on the first call, then random
+  // ones.
   std::vector<Eigen::MatrixXd> starts;
   if (previous_.has_value() && previous_->inputs.rows() > 0 &&
       previous_->inputs.cols() == du) {
     const Eigen::MatrixXd& prev = previous_->inputs;
     const int prev_rows = static_cast<int>(prev.rows());
+    const int64_t shift =
+        std::max<int64_t>(0, start.steps_since_previous.value_or(previous_->apply_count));
     Eigen::MatrixXd warm(horizon, du);
     for (int i = 0; i < horizon; ++i) {
-      warm.row(i) = prev.row(std::min(i + previous_->apply_count, prev_rows - 1));
+      warm.row(i) = prev.row(
+          static_cast<Eigen::Index>(std::min<int64_t>(i + shift, prev_rows - 1)));
     }
     starts.push_back(std::move(warm));
   } else {

@@ -22,7 +22,8 @@ class AutoPlanner;
 //  - kRec, kPa, kGreedy: the paper's problem (trajopt_optim) by direct multiple
 //    shooting with Ipopt: maximise sum_i H(x_i, u_i) s.t. x_{i+1} = mean(x_i, u_i),
 //    u_i in bounds. Keeps the previous plan to warm-start the next call (shifted by
-//    its apply_count). apply_count: 1 (rec, greedy, mi, roi) or M (pa).
+//    its apply_count, or by PlanStart::steps_since_previous). apply_count: 1 (rec,
+//    greedy, mi, roi) or M (pa).
 //  - kOptimistic: the same NLP and receding horizon on optimistic dynamics
 //    x_{i+1} = mean + optimism_beta sd o eta_i with hallucinated controls eta_i
 //    in [-1, 1]^dx as extra variables, maximising sum log(1 + var / noise)
@@ -55,10 +56,11 @@ class Planner {
   // INVALID_ARGUMENT if x0 has the wrong size or is not finite, if the options are
   // invalid (input bounds, horizon, iterations, signal parameters, sep's state
   // bounds) or time_index < 0; CANCELLED if limits.cancelled fired before any
-  // feasible plan existed.
+  // feasible plan existed. `start`: see PlanStart.
   absl::StatusOr<Plan> PlanInputs(const gp::DynamicsPredictor& model,
                                   const Eigen::VectorXd& x0, int64_t time_index,
-                                  const PlanLimits& limits, PlanSummary* summary);
+                                  const PlanLimits& limits, PlanSummary* summary,
+                                  const PlanStart& start = {});
 
   const PlanOptions& options() const { return options_; }
 
@@ -69,7 +71,7 @@ class Planner {
                                       const gp::DynamicsPredictor& model,
                                       const Eigen::VectorXd& x0, uint64_t call,
                                       const std::function<bool()>& stop,
-                                      PlanSummary* summary);
+                                      const PlanStart& start, PlanSummary* summary);
   // The kSignal strategies.
   Plan PlanSignal(const StrategyInfo& strategy, int state_dim, int64_t time_index) const;
 

@@ -412,12 +412,15 @@ grpc::Status ExplorationService::PlanInputs(grpc::ServerContext* context,
         FindUndamagedSession(request->session(), "session");
     if (!session.ok()) return session.status();
     const SessionSpec& spec = (*session)->spec();
-    if (absl::Status s = ValidatePlanState(DimsOf(spec), request->state()); !s.ok()) {
+    if (absl::Status s = ValidatePlanRequest(DimsOf(spec), spec.plan.horizon, *request);
+        !s.ok()) {
       return s;
     }
     const Clock::time_point deadline = BudgetDeadline(*context, spec.time_budget_s);
     absl::StatusOr<PlanResult> plan = (*session)->PlanInputs(
         Eigen::Map<const Eigen::VectorXd>(request->state().data(), request->state_size()),
+        RowMajorToMatrix(request->pending_inputs(),
+                         request->pending_inputs_size() / spec.input_dim, spec.input_dim),
         deadline, [context]() { return context->IsCancelled(); });
     if (!plan.ok()) return plan.status();
     if (context->IsCancelled()) {

@@ -37,6 +37,29 @@ absl::Status CheckVector(absl::string_view field,
   return absl::OkStatus();
 }
 
+// `values`: min_steps to max_steps rows of `width` numbers, each in range; the
+// limit is named as `max_name`.
+absl::Status CheckSteps(absl::string_view field,
+                        const google::protobuf::RepeatedField<double>& values, int width,
+                        int min_steps, int max_steps, absl::string_view max_name) {
+  const int steps = width > 0 ? values.size() / width : 0;
+  if (width <= 0 || values.size() % width != 0 || steps < min_steps ||
+      steps > max_steps) {
+    return FieldViolationError(
+        field, absl::StrCat("must hold ", min_steps, " to ", max_steps, " steps (",
+                            max_name, ") of input_dim (", width, ") numbers, got ",
+                            values.size(), " numbers"));
+  }
+  for (int i = 0; i < values.size(); ++i) {
+    if (!InRange(values[i])) {
+      return FieldViolationError(
+          absl::StrCat(field, "[", i, "]"),
+          absl::StrCat("(step ", i / width, ") ", OutOfRange(values[i])));
+    }
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::Status ValidateTransitions(
@@ -120,9 +143,14 @@ absl::Status ValidatePredictInputs(const Dims& dims,
   return absl::OkStatus();
 }
 
-absl::Status ValidatePlanState(const Dims& dims,
-                               const google::protobuf::RepeatedField<double>& state) {
-  return CheckVector("state", state, dims.state_dim, "state_dim");
+absl::Status ValidatePlanRequest(const Dims& dims, int horizon,
+                                 const v1::PlanInputsRequest& request) {
+  if (absl::Status s = CheckVector("state", request.state(), dims.state_dim, "state_dim");
+      !s.ok()) {
+    return s;
+  }
+  return CheckSteps("pending_inputs", request.pending_inputs(), dims.input_dim, 0,
+                    horizon, "the session's horizon");
 }
 
 absl::Status ValidateRollout(const Dims& dims, const v1::RolloutRequest& request) {
@@ -143,22 +171,8 @@ absl::Status ValidateRollout(const Dims& dims, const v1::RolloutRequest& request
       }
     }
   }
-  const int steps = dims.input_dim > 0 ? request.inputs_size() / dims.input_dim : 0;
-  if (request.inputs().empty() || request.inputs_size() % dims.input_dim != 0 ||
-      steps > kMaxRolloutSteps) {
-    return FieldViolationError(
-        "inputs", absl::StrCat("must hold 1 to ", kMaxRolloutSteps,
-                               " steps of input_dim (", dims.input_dim, ") numbers, got ",
-                               request.inputs_size(), " numbers"));
-  }
-  for (int i = 0; i < request.inputs_size(); ++i) {
-    if (!InRange(request.inputs(i))) {
-      return FieldViolationError(absl::StrCat("inputs[", i, "]"),
-                                 absl::StrCat("(step ", i / dims.input_dim, ") ",
-                                              OutOfRange(request.inputs(i))));
-    }
-  }
-  return absl::OkStatus();
+  return CheckSteps("inputs", request.inputs(), dims.input_dim, 1, kMaxRolloutSteps,
+                    "a rollout's limit");
 }
 
 }  // namespace excite::service

@@ -39,10 +39,11 @@ absl::Status ValidatePredictInputs(const Dims& dims,
                                    const google::protobuf::RepeatedField<double>& inputs,
                                    int64_t max_points);
 
-// Checks a PlanInputs state: state_dim finite numbers within +-kMaxAbsValue
-// (INVALID_ARGUMENT "state").
-absl::Status ValidatePlanState(const Dims& dims,
-                               const google::protobuf::RepeatedField<double>& state);
+// Checks a PlanInputs request: state_dim finite numbers within +-kMaxAbsValue
+// (INVALID_ARGUMENT "state"); pending_inputs 0 to `horizon` steps of input_dim
+// numbers, in range (INVALID_ARGUMENT naming "pending_inputs").
+absl::Status ValidatePlanRequest(const Dims& dims, int horizon,
+                                 const v1::PlanInputsRequest& request);
 
 // Steps of one Rollout call (each a one-point prediction with Jacobians, O(n^2)).
 inline constexpr int kMaxRolloutSteps = 1000;

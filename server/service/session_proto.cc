@@ -55,6 +55,7 @@ v1::PlanInputsResponse PlanToProto(const PlanResult& result) {
   response.set_safe_box_violation(result.summary.safe_box_violation);
   response.set_planned_by(WireStrategy(result.summary.planned_by));
   response.set_model_version(result.model_version);
+  response.set_start_step(result.start_step);
   return response;
 }
 

@@ -678,6 +678,7 @@ absl::Status Session::CheckPlanShape(const plan::Plan& plan, bool model_free) co
 }
 
 absl::StatusOr<PlanResult> Session::PlanInputs(const Eigen::VectorXd& state,
+                                               const Eigen::MatrixXd& pending,
                                                Clock::time_point deadline,
                                                std::function<bool()> cancelled) {
   const CallScope call(this);
@@ -699,9 +700,26 @@ absl::StatusOr<PlanResult> Session::PlanInputs(const Eigen::VectorXd& state,
   limits.deadline = deadline;
   limits.cancelled = std::move(cancelled);
   PlanResult result;
+  result.start_step = static_cast<int>(pending.rows());
+  const int64_t start = sample_count_ + result.start_step;
+  plan::PlanStart plan_start;
+  plan_start.measured = pending.rows() == 0;
+  if (pending.rows() > 0 || last_plan_pending_) {
+    plan_start.steps_since_previous = start - last_plan_start_;
+  }
   absl::StatusOr<plan::Plan> plan;
   try {
-    plan = planner_.PlanInputs(*model_, state, sample_count_, limits, &result.summary);
+    Eigen::VectorXd x0 = state;
+    if (pending.rows() > 0 && !model_free) {
+      const plan::Rollout ahead = plan::RollOut(*model_, state, pending);
+      if (!ahead.valid) {
+        return absl::InternalError(
+            absl::StrCat("session ", name_,
+                         ": the model's prediction along pending_inputs is not finite"));
+      }
+      x0 = ahead.means.row(ahead.means.rows() - 1).transpose();
+    }
+    plan = planner_.PlanInputs(*model_, x0, start, limits, &result.summary, plan_start);
   } catch (const std::exception& e) {
     plan = InternalFromException("planner", e);
   }
@@ -721,6 +739,8 @@ absl::StatusOr<PlanResult> Session::PlanInputs(const Eigen::VectorXd& state,
       std::clamp(result.plan.apply_count, 1, static_cast<int>(result.plan.inputs.rows()));
   result.model_version = model_version_;
   last_plan_ = result;
+  last_plan_start_ = start;
+  last_plan_pending_ = pending.rows() > 0;
   PublishSnapshot();
   {
     PlanRecord record;

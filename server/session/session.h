@@ -66,6 +66,9 @@ struct PlanResult {
   plan::Plan plan;
   plan::PlanSummary summary;
   int64_t model_version = 0;
+  // Steps after the request's state at which the plan's first input applies (the
+  // pending inputs).
+  int start_step = 0;
 };
 
 // One output's GP as Session::Snapshot reports it.
@@ -265,7 +268,11 @@ class Session {
   // signal, starting at time index = the number of samples the session holds, and
   // no predicted states or variances. The plan's shape is checked (INTERNAL if
   // wrong) and its apply_count clamped to [1, horizon].
+  // `pending`: P x input_dim inputs the plant applies from `state` before this
+  // plan (checked by the caller; 0 rows for none): the plan starts from the
+  // model mean's state after them, and the signals P samples later.
   absl::StatusOr<PlanResult> PlanInputs(const Eigen::VectorXd& state,
+                                        const Eigen::MatrixXd& pending,
                                         Clock::time_point deadline,
                                         std::function<bool()> cancelled);
 
@@ -349,6 +356,11 @@ class Session {
   bool deleted_ ABSL_GUARDED_BY(mu_) = false;
   // Snapshot() reports it (for the live view); not stored.
   std::optional<PlanResult> last_plan_ ABSL_GUARDED_BY(mu_);
+  // Where the last plan started (samples held + its pending inputs) and whether
+  // it had pending inputs: a plant that runs ahead of the plans tells the
+  // planner how far to shift its warm start.
+  int64_t last_plan_start_ ABSL_GUARDED_BY(mu_) = 0;
+  bool last_plan_pending_ ABSL_GUARDED_BY(mu_) = false;
   // Bytes of budget_ this session holds: EstimatedBytes(sample_count_).
   int64_t reserved_bytes_ ABSL_GUARDED_BY(mu_) = 0;
   // DATA_LOSS if restored from samples the model cannot use: every call but

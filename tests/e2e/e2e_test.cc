@@ -416,6 +416,27 @@ TEST_F(EndToEndTest, CliDoesAFirstWorkflowAlone) {
   EXPECT_NE(out.find("  40 | "), std::string::npos) << out;  // mean std at the first fit
   ASSERT_EQ(RunCli({"--output=json", "history", "first"}, &out, &err), 0) << err;
   EXPECT_EQ(out.rfind("{\"plans\":[", 0), 0u) << out;
+  // A plan after two pending inputs counts its steps from the given state.
+  ASSERT_EQ(
+      RunCli({"plan", "first", "--state=0,0", "--pending_inputs=0.5,-0.5"}, &out, &err),
+      0)
+      << err;
+  EXPECT_NE(out.find("after the 2 pending one(s)"), std::string::npos) << out;
+  EXPECT_NE(out.find("\n   2 | "), std::string::npos) << out;
+  EXPECT_EQ(
+      RunCli({"plan", "first", "--state=0,0", "--pending_inputs=0.5,x"}, &out, &err), 2);
+  // A rollout: step 0 is the state itself, with no spread.
+  ASSERT_EQ(
+      RunCli({"rollout", "first", "--state=0.1,0", "--inputs=0.5,0.5,0.5"}, &out, &err),
+      0)
+      << err;
+  EXPECT_NE(out.find("state: theta [rad], theta_dot [rad/s]"), std::string::npos) << out;
+  EXPECT_NE(out.find("   0 |        0.1          0 |          0          0"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("\n   3 | "), std::string::npos) << out;
+  EXPECT_EQ(RunCli({"rollout", "first", "--state=0.1,0"}, &out, &err), 2);  // no inputs
+  EXPECT_NE(err.find("--inputs must be"), std::string::npos) << err;
   // A typo gets a suggestion; the version says what was built.
   EXPECT_EQ(RunCli({"pridict", "first"}, &out, &err), 2);
   EXPECT_NE(err.find("unknown command \"pridict\" (did you mean predict?)"),

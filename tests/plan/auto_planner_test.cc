@@ -80,15 +80,17 @@ PlanOptions AutoOptions(std::vector<Strategy> members) {
 }
 
 // Runs `calls` plans, each followed by the model's prediction of the first
-// transition plus `error_of(member)`, `step` samples later.
+// transition plus `error_of(member)`, `step` samples later; `measured`: whether
+// the planner is told that x is measured.
 std::vector<Strategy> Explore(AutoPlanner* planner, int calls, int step,
-                              double (*error_of)(Strategy)) {
+                              double (*error_of)(Strategy), bool measured = true) {
   const AnalyticPendulum model;
   Eigen::VectorXd x = Eigen::Vector2d(0.3, 0.0);
   std::vector<Strategy> drawn;
   for (int k = 0; k < calls; ++k) {
     PlanSummary summary;
-    const auto plan = planner->PlanInputs(model, x, int64_t{k} * step, PlanLimits{}, &summary);
+    const auto plan = planner->PlanInputs(model, x, int64_t{k} * step, PlanLimits{},
+                                          measured, &summary);
     EXPECT_TRUE(plan.ok()) << plan.status();
     if (!plan.ok()) break;
     EXPECT_EQ(plan->apply_count, 1);
@@ -105,7 +107,9 @@ std::vector<Strategy> Explore(AutoPlanner* planner, int calls, int step,
   return drawn;
 }
 
-double RandomSurprises(Strategy member) { return member == Strategy::kRandom ? 0.5 : 1e-3; }
+double RandomSurprises(Strategy member) {
+  return member == Strategy::kRandom ? 0.5 : 1e-3;
+}
 
 TEST(AutoPlannerTest, TheMemberWhoseTransitionsSurpriseTheModelIsDrawnMore) {
   AutoPlanner planner(AutoOptions({Strategy::kRec, Strategy::kRandom}));
@@ -124,6 +128,13 @@ TEST(AutoPlannerTest, NoRewardWhenTheClientDidNotApplyExactlyOneInput) {
   EXPECT_TRUE(planner.Probabilities().isApprox(Eigen::Vector2d(0.5, 0.5), 1e-15));
 }
 
+// A state predicted after pending inputs is no plant's answer to any input.
+TEST(AutoPlannerTest, NoRewardWhenTheStateIsPredicted) {
+  AutoPlanner planner(AutoOptions({Strategy::kRec, Strategy::kRandom}));
+  Explore(&planner, 20, 1, &RandomSurprises, /*measured=*/false);
+  EXPECT_TRUE(planner.Probabilities().isApprox(Eigen::Vector2d(0.5, 0.5), 1e-15));
+}
+
 TEST(AutoPlannerTest, TheSameSeedDrawsTheSameMembers) {
   AutoPlanner a(AutoOptions({Strategy::kRec, Strategy::kGreedy, Strategy::kRandom}));
   AutoPlanner b(AutoOptions({Strategy::kRec, Strategy::kGreedy, Strategy::kRandom}));
@@ -132,8 +143,9 @@ TEST(AutoPlannerTest, TheSameSeedDrawsTheSameMembers) {
 
 TEST(AutoPlannerTest, DefaultMembersNeedStateBoundsForRoi) {
   PlanOptions o = AutoOptions({});
-  EXPECT_EQ(AutoPlanner(o).members(),
-            (std::vector<Strategy>{Strategy::kRec, Strategy::kOptimistic, Strategy::kRandom}));
+  EXPECT_EQ(
+      AutoPlanner(o).members(),
+      (std::vector<Strategy>{Strategy::kRec, Strategy::kOptimistic, Strategy::kRandom}));
   o.state_lower = Eigen::Vector2d(-3.0, -8.0);
   o.state_upper = Eigen::Vector2d(3.0, 8.0);
   EXPECT_EQ(AutoPlanner(o).members(),

@@ -178,6 +178,34 @@ TEST(PlannerTest, WarmStartIsThePreviousPlanShifted) {
   }
 }
 
+// A plant that ran ahead of the plans says how far: the warm start is the
+// previous plan shifted by that many steps (0: the same plan again).
+TEST(PlannerTest, WarmStartShiftsByTheStepsTheCallerGives) {
+  const AnalyticPendulum model;
+  for (int steps : {0, 2, 4}) {
+    PlanOptions o = Options(Strategy::kRec, 6);
+    o.restarts = 0;
+    Planner planner(o);
+    const auto first =
+        planner.PlanInputs(model, Eigen::Vector2d(0.0, 0.0), 0, PlanLimits{}, nullptr);
+    ASSERT_TRUE(first.ok());
+    Planner probe = std::move(planner);
+    const_cast<PlanOptions&>(probe.options()).max_iterations = 0;
+    PlanStart start;
+    start.measured = false;
+    start.steps_since_previous = steps;
+    PlanSummary summary;
+    const auto second = probe.PlanInputs(model, first->states.row(steps).transpose(),
+                                         steps, PlanLimits{}, &summary, start);
+    ASSERT_TRUE(second.ok());
+    EXPECT_EQ(summary.starts, 1);
+    for (int i = 0; i < 6; ++i) {
+      EXPECT_NEAR(second->inputs(i, 0), first->inputs(std::min(i + steps, 5), 0), 0.03)
+          << "steps " << steps << " i=" << i;
+    }
+  }
+}
+
 TEST(PlannerTest, PastDeadlineReturnsQuicklyWithTimeLimit) {
   const AnalyticPendulum model;
   const PlanOptions o = Options(Strategy::kRec, 15);

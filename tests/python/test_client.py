@@ -296,6 +296,22 @@ def test_rollout_returns_the_propagated_trajectory(client):
     session.delete()
 
 
+def test_plan_ahead_of_pending_inputs(client):
+    session = client.create_session(linear_config())
+    x, u, x_next, _, _ = linear_data(30, seed=9)
+    session.add(x, u, x_next)
+    pending = [0.5, -0.25]  # input_dim 1: one number per step
+    plan = session.plan([0.1, -0.1], pending_inputs=pending)
+    assert plan.start_step == 2 and session.plan([0.1, -0.1]).start_step == 0
+    rolled = session.rollout([0.1, -0.1], np.reshape(pending, (2, 1)))
+    np.testing.assert_allclose(plan.predicted_states[0], rolled.means[2], rtol=1e-12)
+    with pytest.raises(excite.InvalidArgument, match="pending_inputs"):
+        session.plan([0.1, -0.1], pending_inputs=np.zeros((50, 1)))
+    with pytest.raises(ValueError, match=r"pending_inputs: expected shape \(n, 1\)"):
+        session.plan([0.1, -0.1], pending_inputs=np.zeros((2, 3)))
+    session.delete()
+
+
 def test_model_free_strategy_plans_without_data_or_predictions(client):
     session = client.create_session(linear_config(strategy="random", horizon=6))
     plan = session.plan([0.0, 0.0])  # no data needed

@@ -72,6 +72,9 @@ class Plan:
     model_version: int
     # The strategy that made the plan, short name: for "auto" the member it drew.
     planned_by: str = ""
+    # Steps after the given state at which inputs[0] applies: the number of
+    # pending inputs (predicted_states[0] is then the state predicted after them).
+    start_step: int = 0
 
     @property
     def to_apply(self) -> FloatArray:
@@ -539,14 +542,21 @@ def prediction(reply: pb.PredictResponse, n: int, state_dim: int) -> Prediction:
     )
 
 
-def plan_request(name: str, state_dim: int, state: npt.ArrayLike) -> pb.PlanInputsRequest:
+def plan_request(name: str, state_dim: int, input_dim: int, state: npt.ArrayLike,
+                 pending_inputs: Optional[npt.ArrayLike] = None) -> pb.PlanInputsRequest:
     x = np.asarray(state, dtype=np.float64)
     if x.ndim == 2 and x.shape[0] == 1:
         x = x[0]
     if x.ndim != 1 or x.size != state_dim:
         raise ValueError(f"plan takes one state of {state_dim} numbers (the session's "
                          f"state_dim), got shape {x.shape}")
-    return pb.PlanInputsRequest(session=name, state=x)
+    request = pb.PlanInputsRequest(session=name, state=x)
+    if pending_inputs is not None:
+        pending = np.asarray(pending_inputs, dtype=np.float64)
+        if pending.ndim == 1 and input_dim == 1:  # one input per step
+            pending = pending.reshape(-1, 1)
+        request.pending_inputs.extend(rows(pending, input_dim, "pending_inputs").ravel())
+    return request
 
 
 def rollout_request(name: str, state_dim: int, input_dim: int, state: npt.ArrayLike,
@@ -590,6 +600,7 @@ def plan(reply: pb.PlanInputsResponse, state_dim: int, input_dim: int) -> Plan:
         wall_time_ms=float(reply.wall_time_ms),
         model_version=int(reply.model_version),
         planned_by=_short_strategy(reply.planned_by),
+        start_step=int(reply.start_step),
     )
 
 

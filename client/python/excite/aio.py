@@ -225,9 +225,11 @@ class Session(_common.SessionView):
                                                  metadata=self.metadata)
         return _common.prediction(reply, n, self.state_dim)
 
-    async def plan(self, state: npt.ArrayLike) -> Plan:
+    async def plan(self, state: npt.ArrayLike,
+                   pending_inputs: Optional[npt.ArrayLike] = None) -> Plan:
         """See :meth:`excite.Session.plan`."""
-        request = _common.plan_request(self.name, self.state_dim, state)
+        request = _common.plan_request(self.name, self.state_dim, self.input_dim, state,
+                                       pending_inputs)
         reply = await self.client._calls.PlanInputs(
             request, timeout=self.client.plan_timeout_s, metadata=self.metadata)
         return _common.plan(reply, self.state_dim, self.input_dim)

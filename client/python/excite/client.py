@@ -285,10 +285,16 @@ class Session(_common.SessionView):
                                          metadata=self.metadata)
         return _common.prediction(reply, n, self.state_dim)
 
-    def plan(self, state: npt.ArrayLike) -> Plan:
+    def plan(self, state: npt.ArrayLike, pending_inputs: Optional[npt.ArrayLike] = None
+             ) -> Plan:
         """The inputs to apply from the measured `state` (state_dim numbers). Flushes
-        this session's open streams first, so the plan sees what they sent."""
-        request = _common.plan_request(self.name, self.state_dim, state)
+        this session's open streams first, so the plan sees what they sent.
+
+        `pending_inputs` ((P, input_dim), P <= horizon): inputs the plant applies from
+        `state` while this plan is computed; the plan then starts P steps later, from
+        the state the model predicts after them (``Plan.start_step`` is P)."""
+        request = _common.plan_request(self.name, self.state_dim, self.input_dim, state,
+                                       pending_inputs)
         for stream in list(self._open_streams):
             stream.flush()
         reply = self.client.stub.PlanInputs(request, timeout=self.client.plan_timeout_s,
