@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <deque>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -13,9 +15,11 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/strip.h"
+#include "absl/synchronization/mutex.h"
 #include "client/transition_csv.h"
 #include "server/service/strategy_names.h"
 #include "sim/evaluation.h"
+#include "sim/input_schedule.h"
 #include "sim/portable_random.h"
 #include "sim/sim_config.h"
 
@@ -79,6 +83,16 @@ class ExplorationRun {
   // resume_session: the stored samples' count, sequences, last state and states.
   absl::StatusOr<v1::Session> Resume();
   absl::Status Explore();
+  // The plant's first state (or the resumed one) and its measurement.
+  void StartPlant();
+  // ExplorationOptions::realtime_hz.
+  absl::Status ExploreInRealTime();
+  // Sends `batch` (one AddData) after which the session must hold `expected`
+  // samples; writes the trajectory.
+  absl::Status Send(const std::vector<v1::Transition>& batch, int64_t expected);
+  // The plan's inputs as a horizon x input_dim matrix, each clipped to the input
+  // box; INTERNAL for a malformed reply.
+  absl::StatusOr<Eigen::MatrixXd> PlannedInputs(const v1::PlanInputsResponse& plan);
   // ExplorationOptions::uniform_design.
   absl::Status ExploreUniformly();
   // Applies u for one sampling period and queues the transition.
@@ -87,7 +101,7 @@ class ExplorationRun {
   absl::Status FlushAndMaybeEvaluate();
   // Appends `stored` to options_.trajectory (the header first).
   void WriteTrajectory(const std::vector<v1::Transition>& stored);
-  absl::Status Evaluate();
+  absl::Status Evaluate(int64_t samples);
   // The summary's multi-step errors: the model's mean rolled out open loop along
   // rollouts_, one Predict per step for all trajectories.
   absl::Status RollOut();
@@ -126,6 +140,7 @@ class ExplorationRun {
   std::vector<double> plan_ms_;
   int64_t random_steps_ = 0;
   int64_t plan_retries_ = 0;
+  int horizon_ = 1;  // the session's planning horizon
   RunSummary summary_;
 };
 
@@ -162,6 +177,7 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
                      ? config_.session().refit().min_samples()
                      : 2;
 
+  horizon_ = std::max(1, session->config().horizon());
   predict_request_.set_session(session_name_);
   predict_request_.set_include_noise(false);
   for (Eigen::Index p = 0; p < evaluation_set_.inputs.rows(); ++p) {
@@ -173,7 +189,7 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   absl::Status explored = Explore();
   // A resumed session that already held its samples is still scored once.
   if (explored.ok() && summary_.rmse_history.empty() && samples_ >= min_samples_) {
-    explored = Evaluate();
+    explored = Evaluate(samples_);
   }
   if (explored.ok()) explored = RollOut();
   // What became of the session, for a failure's message.
@@ -216,6 +232,8 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   summary_.coverage_marginal = coverage->marginal;
   summary_.coverage_joint = coverage->joint;
   summary_.plan_ms_p50 = Median(plan_ms_);
+  summary_.plan_ms_p90 = Quantile(plan_ms_, 0.9);
+  summary_.plan_ms_p99 = Quantile(plan_ms_, 0.99);
   summary_.plans = static_cast<int64_t>(plan_ms_.size());
   summary_.random_steps = random_steps_;
   summary_.plan_retries = plan_retries_;
@@ -316,10 +334,7 @@ absl::Status ExplorationRun::ExploreUniformly() {
   return FlushAndMaybeEvaluate();
 }
 
-absl::Status ExplorationRun::Explore() {
-  if (options_.uniform_design) return ExploreUniformly();
-  const int64_t target = config_.samples();
-
+void ExplorationRun::StartPlant() {
   if (options_.resume_session) {
     y_ = x_;  // the stored measurement; the plant continues from it
   } else {
@@ -330,6 +345,13 @@ absl::Status ExplorationRun::Explore() {
     y_ = Measure(x_);
     visited_.push_back(x_);
   }
+}
+
+absl::Status ExplorationRun::Explore() {
+  if (options_.uniform_design) return ExploreUniformly();
+  if (options_.realtime_hz > 0) return ExploreInRealTime();
+  const int64_t target = config_.samples();
+  StartPlant();
 
   while (samples_ < target) {
     if (options_.interrupted != nullptr && options_.interrupted->load()) {
@@ -369,24 +391,10 @@ absl::Status ExplorationRun::Explore() {
     } else {
       plan_ms_.push_back(MillisecondsSince(plan_start));
       ++summary_.planned_by[service::StrategyShortName(plan->planned_by())];
-      const int horizon = plan->horizon();
-      const int apply = plan->apply_count();
-      if (horizon < 1 || plan->inputs_size() != horizon * du_ || apply < 1 ||
-          apply > horizon) {
-        return absl::InternalError(absl::StrCat(
-            "PlanInputs: malformed reply (horizon ", horizon, ", apply_count ", apply,
-            ", ", plan->inputs_size(), " inputs for input_dim ", du_, ")"));
-      }
-      for (int i = 0; i < apply; ++i) {
-        Eigen::VectorXd u(du_);
-        for (int j = 0; j < du_; ++j) {
-          const double value = plan->inputs(i * du_ + j);
-          if (!std::isfinite(value)) {
-            return absl::InternalError("PlanInputs: non-finite planned input");
-          }
-          u(j) = std::clamp(value, input_box_.lower(j), input_box_.upper(j));
-        }
-        inputs.push_back(std::move(u));
+      absl::StatusOr<Eigen::MatrixXd> planned = PlannedInputs(*plan);
+      if (!planned.ok()) return planned.status();
+      for (int i = 0; i < plan->apply_count(); ++i) {
+        inputs.push_back(planned->row(i).transpose());
       }
     }
     for (const Eigen::VectorXd& u : inputs) {
@@ -399,6 +407,154 @@ absl::Status ExplorationRun::Explore() {
     }
     if (absl::Status s = FlushAndMaybeEvaluate(); !s.ok()) return s;
   }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<Eigen::MatrixXd> ExplorationRun::PlannedInputs(
+    const v1::PlanInputsResponse& plan) {
+  const int horizon = plan.horizon();
+  const int apply = plan.apply_count();
+  if (horizon < 1 || plan.inputs_size() != horizon * du_ || apply < 1 ||
+      apply > horizon) {
+    return absl::InternalError(absl::StrCat(
+        "PlanInputs: malformed reply (horizon ", horizon, ", apply_count ", apply, ", ",
+        plan.inputs_size(), " inputs for input_dim ", du_, ")"));
+  }
+  Eigen::MatrixXd inputs(horizon, du_);
+  for (int i = 0; i < horizon; ++i) {
+    for (int j = 0; j < du_; ++j) {
+      const double value = plan.inputs(i * du_ + j);
+      if (!std::isfinite(value)) {
+        return absl::InternalError("PlanInputs: non-finite planned input");
+      }
+      inputs(i, j) = std::clamp(value, input_box_.lower(j), input_box_.upper(j));
+    }
+  }
+  return inputs;
+}
+
+absl::Status ExplorationRun::ExploreInRealTime() {
+  const int64_t target = config_.samples();
+  const int64_t every = config_.evaluation().every_samples();
+  const double hz = options_.realtime_hz;
+  StartPlant();
+  Eigen::VectorXd first(du_);  // held until the first plan arrives
+  for (int j = 0; j < du_; ++j) {
+    first(j) = input_random_.Uniform(input_box_.lower(j), input_box_.upper(j));
+  }
+  InputSchedule schedule(first);
+  absl::Mutex mu;  // the plant's state, the queue and the schedule
+  bool done = false;
+  absl::Status failure;
+  RealtimeStats& stats = summary_.realtime;
+  stats.hz = hz;
+
+  // Planning beside the plant: send what was measured, commit the inputs the
+  // plant applies while the plan is computed (as many steps as the slowest of
+  // the last 5 round trips took, plus one), plan from after them.
+  std::thread planner([&] {
+    std::deque<double> round_trips_s;
+    int64_t planned_at = -1;
+    int64_t evaluated_block = samples_ / every;
+    const auto stop = [&](absl::Status status) {
+      absl::MutexLock lock(&mu);
+      if (failure.ok()) failure = std::move(status);
+    };
+    while (true) {
+      std::vector<v1::Transition> batch;
+      Eigen::VectorXd y;
+      int64_t step = 0;
+      Eigen::MatrixXd pending;
+      {
+        const auto moved = [&] { return done || samples_ > planned_at; };
+        absl::MutexLock lock(&mu, absl::Condition(&moved));
+        if (done || !failure.ok()) return;
+        batch.swap(pending_);
+        y = y_;
+        step = samples_;
+        double slowest_s = 0.0;
+        for (double s : round_trips_s) slowest_s = std::max(slowest_s, s);
+        const int ahead =
+            std::clamp(static_cast<int>(std::ceil(slowest_s * hz)) + 1, 1, horizon_);
+        if (step >= min_samples_) pending = schedule.Commit(step, ahead);
+      }
+      const auto sent_at = Clock::now();
+      if (absl::Status s = Send(batch, step); !s.ok()) return stop(s);
+      if (step / every > evaluated_block && step >= min_samples_) {
+        evaluated_block = step / every;
+        if (absl::Status s = Evaluate(step); !s.ok()) return stop(s);
+      }
+      planned_at = step;
+      if (step < min_samples_) continue;  // FAILED_PRECONDITION until then
+      const auto plan_start = Clock::now();
+      absl::StatusOr<v1::PlanInputsResponse> plan = client_.PlanInputs(
+          session_name_, std::vector<double>(y.data(), y.data() + dx_),
+          std::vector<double>(pending.data(), pending.data() + pending.size()));
+      if (!plan.ok() && plan.status().code() == absl::StatusCode::kDeadlineExceeded) {
+        ++plan_retries_;  // the plant holds on; plan again at the next sample
+        continue;
+      }
+      if (!plan.ok()) return stop(Annotate(plan.status(), "PlanInputs"));
+      absl::StatusOr<Eigen::MatrixXd> inputs = PlannedInputs(*plan);
+      if (!inputs.ok()) return stop(inputs.status());
+      if (plan->start_step() != pending.rows()) {
+        return stop(absl::InternalError(absl::StrCat("PlanInputs: start_step ",
+                                                     plan->start_step(), " for ",
+                                                     pending.rows(), " pending inputs")));
+      }
+      plan_ms_.push_back(MillisecondsSince(plan_start));
+      round_trips_s.push_back(MillisecondsSince(sent_at) / 1000.0);
+      if (round_trips_s.size() > 5) round_trips_s.pop_front();
+      ++summary_.planned_by[service::StrategyShortName(plan->planned_by())];
+      absl::MutexLock lock(&mu);
+      if (!schedule.Install(step + pending.rows(), *inputs, samples_)) ++stats.late_plans;
+    }
+  });
+
+  // The plant's clock: one step per tick, whatever the planner is doing.
+  const auto period = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(1.0 / hz));
+  const Clock::time_point start = Clock::now();
+  for (int64_t tick = 0;; ++tick) {
+    std::this_thread::sleep_until(start + tick * period);
+    if (Clock::now() > start + (tick + 1) * period) ++stats.overruns;
+    absl::MutexLock lock(&mu);
+    if (samples_ >= target || !failure.ok()) break;
+    if (options_.interrupted != nullptr && options_.interrupted->load()) {
+      failure = absl::CancelledError(
+          absl::StrCat("interrupted after ", samples_, " stored samples"));
+      break;
+    }
+    bool from_plan = false;
+    const Eigen::VectorXd u = schedule.Take(samples_, &from_plan);
+    ++(from_plan ? stats.ticks_from_plan : stats.ticks_fell_back);
+    if (absl::Status s = ApplyInput(u); !s.ok()) {
+      failure = s;
+      break;
+    }
+  }
+  {
+    absl::MutexLock lock(&mu);
+    done = true;
+  }
+  planner.join();
+  if (!failure.ok()) return failure;
+  return FlushAndMaybeEvaluate();
+}
+
+absl::Status ExplorationRun::Send(const std::vector<v1::Transition>& batch,
+                                  int64_t expected) {
+  if (batch.empty()) return absl::OkStatus();
+  absl::StatusOr<v1::AddDataResponse> reply = client_.AddData(session_name_, {batch});
+  if (!reply.ok()) return Annotate(reply.status(), "AddData");
+  if (reply->stored() + reply->duplicates() != static_cast<int64_t>(batch.size()) ||
+      reply->sample_count() != expected) {
+    return absl::DataLossError(absl::StrCat(
+        "AddData stored ", reply->stored(), " of ", batch.size(), " transitions (",
+        reply->duplicates(), " duplicates); the session has ", reply->sample_count(),
+        " samples, expected ", expected));
+  }
+  if (options_.trajectory != nullptr) WriteTrajectory(batch);
   return absl::OkStatus();
 }
 
@@ -426,23 +582,13 @@ absl::Status ExplorationRun::ApplyInput(const Eigen::VectorXd& u) {
 
 absl::Status ExplorationRun::FlushAndMaybeEvaluate() {
   if (pending_.empty()) return absl::OkStatus();
-  const int64_t sent = static_cast<int64_t>(pending_.size());
-  absl::StatusOr<v1::AddDataResponse> reply = client_.AddData(session_name_, {pending_});
-  if (!reply.ok()) return Annotate(reply.status(), "AddData");
   // A batch resent after a lost answer (a retry) comes back as duplicates.
-  if (reply->stored() + reply->duplicates() != sent ||
-      reply->sample_count() != samples_) {
-    return absl::DataLossError(
-        absl::StrCat("AddData stored ", reply->stored(), " of ", sent, " transitions (",
-                     reply->duplicates(), " duplicates); the session has ",
-                     reply->sample_count(), " samples, expected ", samples_));
-  }
-  if (options_.trajectory != nullptr) WriteTrajectory(pending_);
+  if (absl::Status s = Send(pending_, samples_); !s.ok()) return s;
   pending_.clear();
   const int64_t every = config_.evaluation().every_samples();
   if ((samples_ % every == 0 || samples_ == config_.samples()) &&
       samples_ >= min_samples_) {
-    return Evaluate();
+    return Evaluate(samples_);
   }
   return absl::OkStatus();
 }
@@ -493,7 +639,7 @@ absl::Status ExplorationRun::RollOut() {
   return absl::OkStatus();
 }
 
-absl::Status ExplorationRun::Evaluate() {
+absl::Status ExplorationRun::Evaluate(int64_t samples) {
   absl::StatusOr<v1::PredictResponse> reply = client_.Predict(predict_request_);
   if (!reply.ok()) return Annotate(reply.status(), "Predict");
   const Eigen::Index points = evaluation_set_.next_states.rows();
@@ -517,10 +663,10 @@ absl::Status ExplorationRun::Evaluate() {
       ComputeCalibration(mean, variance, evaluation_set_.next_states, angle_dims_);
   summary_.final_nlpd = calibration.nlpd;
   summary_.final_inside_95 = calibration.inside_95;
-  summary_.rmse_history.push_back({samples_, *rmse});
+  summary_.rmse_history.push_back({samples, *rmse});
   if (options_.log != nullptr) {
     *options_.log << absl::StrFormat("step %d samples %d rmse %.4f plan_ms %.1f\n",
-                                     static_cast<int64_t>(plan_ms_.size()), samples_,
+                                     static_cast<int64_t>(plan_ms_.size()), samples,
                                      *rmse, plan_ms_.empty() ? 0.0 : plan_ms_.back())
                   << std::flush;
   }

@@ -49,6 +49,17 @@ struct ExplorationOptions {
   // there is no such session. The session is kept at the end: the run did not
   // create it. Coverage counts the stored samples by their measured states.
   bool resume_session = false;
+  // > 0: a real-time plant. The plant steps on a wall clock at this rate in its
+  // own loop and never waits for the server; beside it, a planner thread sends
+  // the new transitions and asks for the next plan with the inputs the plant
+  // applies meanwhile as pending_inputs (as many steps as the slowest of the last
+  // 5 AddData + PlanInputs round trips took at this rate, plus one, at most the
+  // horizon), then installs the plan from the step it starts at. A tick with no
+  // plan row for it holds the last input applied (the stated fallback; before the
+  // first plan, one input drawn uniformly from the input bounds). Every row of a
+  // plan is applied until the next plan takes over, whatever its apply_count.
+  // The summary's `realtime` counts ticks and late plans.
+  double realtime_hz = 0.0;
 };
 
 // Runs one exploration of `plant` against the server behind `client`, as `config`

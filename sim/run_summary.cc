@@ -79,6 +79,14 @@ std::string RunSummaryToJson(const RunSummary& summary) {
                     ": ", count);
   }
   planned_by += "}";
+  const RealtimeStats& rt = summary.realtime;
+  const std::string realtime =
+      rt.hz > 0 ? absl::StrCat("{\"hz\": ", JsonNumber(rt.hz),
+                               ", \"ticks_from_plan\": ", rt.ticks_from_plan,
+                               ", \"ticks_fell_back\": ", rt.ticks_fell_back,
+                               ", \"late_plans\": ", rt.late_plans,
+                               ", \"overruns\": ", rt.overruns, "}")
+                : "null";
   return absl::StrCat(
       "{\n",                                                    //
       "  \"system\": ", JsonString(summary.system), ",\n",      //
@@ -103,7 +111,10 @@ std::string RunSummaryToJson(const RunSummary& summary) {
       "  \"random_steps\": ", summary.random_steps, ",\n",  //
       "  \"plan_retries\": ", summary.plan_retries, ",\n",  //
       "  \"left_safe_box\": ", left_safe_box, ",\n",        //
-      "  \"wall_s\": ", JsonNumber(summary.wall_s), "\n",   //
+      "  \"wall_s\": ", JsonNumber(summary.wall_s), ",\n",  //
+      "  \"plan_ms_p90\": ", JsonNumber(summary.plan_ms_p90), ",\n",
+      "  \"plan_ms_p99\": ", JsonNumber(summary.plan_ms_p99), ",\n",
+      "  \"realtime\": ", realtime, "\n",  //
       "}\n");
 }
 
@@ -125,6 +136,17 @@ double Median(std::vector<double> values) {
   if (values.size() % 2 == 1) return upper;
   const double lower = *std::max_element(values.begin(), values.begin() + mid);
   return 0.5 * (lower + upper);
+}
+
+double Quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const double position =
+      std::clamp(q, 0.0, 1.0) * static_cast<double>(values.size() - 1);
+  const size_t below = static_cast<size_t>(position);
+  const size_t above = std::min(below + 1, values.size() - 1);
+  const double fraction = position - static_cast<double>(below);
+  return values[below] + fraction * (values[above] - values[below]);
 }
 
 }  // namespace excite::sim

@@ -18,6 +18,16 @@ struct RmsePoint {
   double rmse = 0.0;
 };
 
+// A real-time run (ExplorationOptions::realtime_hz): where each tick's input came
+// from.
+struct RealtimeStats {
+  double hz = 0.0;              // 0: a lock-step run (the rest unset)
+  int64_t ticks_from_plan = 0;  // the input was a plan's row for that tick
+  int64_t ticks_fell_back = 0;  // no plan row: the last input held
+  int64_t late_plans = 0;       // plans that arrived after their first step
+  int64_t overruns = 0;         // ticks that began more than a period late
+};
+
 // What one exploration run produced (see exploration_run.h for how each field is
 // measured and evaluation.h for the metrics' definitions).
 struct RunSummary {
@@ -54,7 +64,10 @@ struct RunSummary {
   // With a safe box (session.safety.state_bounds): the fraction of visited (true)
   // states outside it, in [0, 1]; not set without a box.
   std::optional<double> left_safe_box;
-  double wall_s = 0.0;  // Wall time of the whole run [s].
+  double wall_s = 0.0;       // Wall time of the whole run [s].
+  double plan_ms_p90 = 0.0;  // Percentiles of the same round trips [ms].
+  double plan_ms_p99 = 0.0;
+  RealtimeStats realtime;
 };
 
 // The summary as one JSON object with the keys system, strategy, session, samples,
@@ -62,8 +75,10 @@ struct RunSummary {
 // final_nlpd, final_inside_95, rollout_rmse_10, rollout_rmse_30, coverage_marginal,
 // coverage_joint, rmse_history ([[samples, rmse], ...]), plan_ms_p50, plans, planned_by
 // ({"rec": n, ...}), random_steps, plan_retries,
-// left_safe_box, wall_s. Non-finite numbers and a missing coverage_joint or left_safe_box
-// are written as null. Ends with a newline.
+// left_safe_box, wall_s, plan_ms_p90, plan_ms_p99 and, for a real-time run,
+// realtime ({"hz", "ticks_from_plan", "ticks_fell_back", "late_plans",
+// "overruns"}; null for lock-step). Non-finite numbers and a missing coverage_joint or
+// left_safe_box are written as null. Ends with a newline.
 std::string RunSummaryToJson(const RunSummary& summary);
 
 // Writes RunSummaryToJson(summary) to `path` (replacing it). INTERNAL naming the
@@ -73,6 +88,10 @@ absl::Status WriteRunSummary(const RunSummary& summary, const std::string& path)
 // The median of `values` (mean of the two middle ones for an even count; 0 if
 // empty). Takes a copy: O(n) expected time.
 double Median(std::vector<double> values);
+
+// The q-quantile (q in [0, 1]) of `values` by linear interpolation between order
+// statistics (0 if empty).
+double Quantile(std::vector<double> values, double q);
 
 }  // namespace excite::sim
 

@@ -54,6 +54,11 @@ ABSL_FLAG(bool, resume, false,
           "before a Ctrl-C) until it holds --samples: its samples stay, the plant starts "
           "from its last stored state, the session's stored config plans; the session is "
           "kept at the end");
+ABSL_FLAG(double, realtime_hz, 0.0,
+          "> 0: a real-time plant stepping at this rate on the wall clock, never "
+          "waiting for the server; plans are computed beside it from the state after "
+          "the inputs it applies meanwhile (pending_inputs), and a tick no plan covers "
+          "holds the last input. 0: lock-step (the plant waits for each plan)");
 ABSL_FLAG(std::string, session_id, "", "session id to ask for; empty: server's choice");
 ABSL_FLAG(int32_t, connect_timeout_s, 10, "how long to wait for the server to be ready");
 ABSL_FLAG(int32_t, retry_unavailable_s, 30,
@@ -157,6 +162,13 @@ int Main() {
   std::signal(SIGTERM, OnInterrupt);
   options.log = &std::cout;
   options.uniform_design = uniform_design;
+  options.realtime_hz = absl::GetFlag(FLAGS_realtime_hz);
+  if (!(options.realtime_hz >= 0.0 && options.realtime_hz <= 10000.0) ||
+      (options.realtime_hz > 0 && uniform_design)) {
+    std::cerr << "excite-sim: --realtime_hz must be in [0, 10000] (0: lock-step), and "
+                 "the uniform design has no clock\n";
+    return 2;
+  }
   std::ofstream trajectory;
   const std::string trajectory_path = absl::GetFlag(FLAGS_trajectory);
   if (!trajectory_path.empty()) {
@@ -197,6 +209,17 @@ int Main() {
                       unit.empty() ? "" : " ", unit);
     }
     std::cout << line << "\n";
+  }
+  if (const RealtimeStats& rt = summary->realtime; rt.hz > 0) {
+    const int64_t ticks = rt.ticks_from_plan + rt.ticks_fell_back;
+    std::cout << absl::StrFormat(
+        "real time at %g Hz: %d of %d ticks from a plan, %d fell back (held the last "
+        "input, %.1f %%); %d plans late, %d ticks overran; plan_ms p50 %.1f p90 %.1f "
+        "p99 %.1f\n",
+        rt.hz, rt.ticks_from_plan, ticks, rt.ticks_fell_back,
+        ticks > 0 ? 100.0 * static_cast<double>(rt.ticks_fell_back) / ticks : 0.0,
+        rt.late_plans, rt.overruns, summary->plan_ms_p50, summary->plan_ms_p90,
+        summary->plan_ms_p99);
   }
   if (summary->left_safe_box.has_value()) {
     std::cout << absl::StrFormat("visited states outside the safe box: %.1f %%\n",

@@ -102,10 +102,22 @@ class FakeService final : public v1::ExplorationService::Service {
     }
     return grpc::Status::OK;
   }
-  grpc::Status PlanInputs(grpc::ServerContext*, const v1::PlanInputsRequest*,
+  grpc::Status PlanInputs(grpc::ServerContext*, const v1::PlanInputsRequest* request,
                           v1::PlanInputsResponse* reply) override {
     std::lock_guard<std::mutex> lock(mu_);
     ++plan_calls_;
+    pending_.push_back(
+        {static_cast<int64_t>(transitions_.size()),
+         {request->pending_inputs().begin(), request->pending_inputs().end()}});
+    reply->set_start_step(request->pending_inputs_size());
+    if (distinct_plans_) {  // plan k's row i: 0.01 k + 0.001 i (inside the bounds)
+      reply->set_horizon(config_.horizon());
+      reply->set_apply_count(1);
+      for (int i = 0; i < config_.horizon(); ++i) {
+        reply->add_inputs(0.01 * plan_calls_ + 0.001 * i);
+      }
+      if (transitions_.size() >= 2) return grpc::Status::OK;
+    }
     if (transitions_.size() < 2 || refuse_plans_) {
       return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, "need 2 samples");
     }
@@ -132,8 +144,11 @@ class FakeService final : public v1::ExplorationService::Service {
   int exact_after = 1000000;
   double planned_input = 10.0;  // Outside the bounds: the client clips it.
   bool refuse_plans_ = false;
-  int late_plans_at_5 = 0;  // PlanInputs answering DEADLINE_EXCEEDED at 5 samples
-  int lost_answers_ = 0;    // Predicts answering UNKNOWN "Stream removed"
+  int late_plans_at_5 = 0;       // PlanInputs answering DEADLINE_EXCEEDED at 5 samples
+  int lost_answers_ = 0;         // Predicts answering UNKNOWN "Stream removed"
+  bool distinct_plans_ = false;  // each plan's inputs tell its number and row
+  // Each PlanInputs: the samples stored then and its pending_inputs.
+  std::vector<std::pair<int64_t, std::vector<double>>> pending_;
 };
 
 class ExplorationRunTest : public testing::Test {
@@ -228,6 +243,43 @@ TEST_F(ExplorationRunTest, PaAppliesTheWholePlanAndSplitsBatchesAtEvaluations) {
   EXPECT_GT(summary->coverage_marginal, 0.0);
   ASSERT_TRUE(summary->coverage_joint.has_value());
   EXPECT_GT(*summary->coverage_joint, 0.0);
+}
+
+// A real-time plant: every tick's input is a plan's row or the last one held,
+// and the inputs each plan was told are pending are exactly the ones applied.
+TEST_F(ExplorationRunTest, RealTimePlantAppliesWhatItCommittedTo) {
+  config_.set_samples(60);
+  service_->distinct_plans_ = true;
+  ExplorationOptions options;
+  options.realtime_hz = 100;
+  absl::StatusOr<RunSummary> summary = Run(options);
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->samples, 60);
+  const RealtimeStats& rt = summary->realtime;
+  EXPECT_EQ(rt.hz, 100);
+  EXPECT_EQ(rt.ticks_from_plan + rt.ticks_fell_back, 60);
+  EXPECT_GT(rt.ticks_from_plan, 20);  // the fake answers in well under 10 ms
+  EXPECT_GT(summary->plans, 5);
+  EXPECT_NE(RunSummaryToJson(*summary).find("\"realtime\": {\"hz\": 100, "),
+            std::string::npos);
+
+  const std::vector<v1::Transition>& t = service_->transitions_;
+  ASSERT_EQ(t.size(), 60u);
+  int planned = 0;
+  for (const auto& [stored, pending] : service_->pending_) {
+    if (stored < 2) continue;  // FAILED_PRECONDITION: nothing planned
+    ++planned;
+    EXPECT_GE(pending.size(), 1u);  // always at least the next step
+    for (size_t i = 0; i < pending.size() && stored + i < t.size(); ++i) {
+      EXPECT_EQ(t[stored + i].input(0), pending[i]) << "sample " << stored + i;
+    }
+  }
+  EXPECT_EQ(planned, summary->plans);
+  // The measurement chain holds as in lock-step.
+  for (size_t k = 1; k < t.size(); ++k) {
+    EXPECT_EQ(t[k].state(0), t[k - 1].next_state(0));
+    EXPECT_EQ(t[k].sequence(), static_cast<int64_t>(k));
+  }
 }
 
 TEST_F(ExplorationRunTest, KeepSession) {

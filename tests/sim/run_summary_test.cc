@@ -58,7 +58,10 @@ TEST(RunSummaryTest, Json) {
             "  \"random_steps\": 2,\n"
             "  \"plan_retries\": 0,\n"
             "  \"left_safe_box\": null,\n"
-            "  \"wall_s\": 3\n"
+            "  \"wall_s\": 3,\n"
+            "  \"plan_ms_p90\": 0,\n"
+            "  \"plan_ms_p99\": 0,\n"
+            "  \"realtime\": null\n"
             "}\n");
 }
 
@@ -96,6 +99,27 @@ TEST(RunSummaryTest, WritesFile) {
   text << file.rdbuf();
   EXPECT_EQ(text.str(), RunSummaryToJson(Example()));
   EXPECT_FALSE(WriteRunSummary(Example(), "/nonexistent/dir/x.json").ok());
+}
+
+TEST(RunSummaryTest, RealTimeStatsInTheJson) {
+  RunSummary summary = Example();
+  summary.plan_ms_p90 = 40;
+  summary.realtime = {20, 180, 20, 3, 1};
+  const std::string json = RunSummaryToJson(summary);
+  EXPECT_NE(json.find("\"plan_ms_p90\": 40,\n"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"realtime\": {\"hz\": 20, \"ticks_from_plan\": 180, "
+                      "\"ticks_fell_back\": 20, \"late_plans\": 3, \"overruns\": 1}\n"),
+            std::string::npos)
+      << json;
+}
+
+// Linear interpolation between order statistics (numpy's default).
+TEST(QuantileTest, InterpolatesBetweenOrderStatistics) {
+  EXPECT_EQ(Quantile({}, 0.5), 0.0);
+  EXPECT_EQ(Quantile({7}, 0.99), 7.0);
+  EXPECT_DOUBLE_EQ(Quantile({4, 1, 3, 2, 5}, 0.9), 4.6);  // numpy.quantile: 4.6
+  EXPECT_DOUBLE_EQ(Quantile({4, 1, 3, 2, 5}, 0.5), 3.0);
+  EXPECT_EQ(Quantile({1, 2}, 1.0), 2.0);
 }
 
 TEST(MedianTest, OddEvenEmpty) {
