@@ -450,8 +450,9 @@ absl::Status ExplorationRun::ExploreInRealTime() {
   stats.hz = hz;
 
   // Planning beside the plant: send what was measured, commit the inputs the
-  // plant applies while the plan is computed (as many steps as the slowest of
-  // the last 5 round trips took, plus one), plan from after them.
+  // plant applies while the plan is computed, plan from after them. The planner
+  // wakes just after a tick, so a round trip of L seconds misses the next
+  // ceil(L hz) - 1 ticks (L: the slowest of the last 5, the refits included).
   std::thread planner([&] {
     std::deque<double> round_trips_s;
     int64_t planned_at = -1;
@@ -475,7 +476,7 @@ absl::Status ExplorationRun::ExploreInRealTime() {
         double slowest_s = 0.0;
         for (double s : round_trips_s) slowest_s = std::max(slowest_s, s);
         const int ahead =
-            std::clamp(static_cast<int>(std::ceil(slowest_s * hz)) + 1, 1, horizon_);
+            std::clamp(static_cast<int>(std::ceil(slowest_s * hz)) - 1, 0, horizon_);
         if (step >= min_samples_) pending = schedule.Commit(step, ahead);
       }
       const auto sent_at = Clock::now();

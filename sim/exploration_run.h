@@ -52,9 +52,11 @@ struct ExplorationOptions {
   // > 0: a real-time plant. The plant steps on a wall clock at this rate in its
   // own loop and never waits for the server; beside it, a planner thread sends
   // the new transitions and asks for the next plan with the inputs the plant
-  // applies meanwhile as pending_inputs (as many steps as the slowest of the last
-  // 5 AddData + PlanInputs round trips took at this rate, plus one, at most the
-  // horizon), then installs the plan from the step it starts at. A tick with no
+  // applies meanwhile as pending_inputs, then installs the plan from the step it
+  // starts at. The planner wakes just after a tick, so it commits the ticks a
+  // round trip misses: ceil(L * realtime_hz) - 1, L the slowest of the last 5
+  // AddData + PlanInputs round trips, at most the horizon (0 while L is below a
+  // period: the plan starts from the measured state, as in lock-step). A tick with no
   // plan row for it holds the last input applied (the stated fallback; before the
   // first plan, one input drawn uniformly from the input bounds). Every row of a
   // plan is applied until the next plan takes over, whatever its apply_count.
