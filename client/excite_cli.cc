@@ -10,6 +10,7 @@
 //   excite rollout NAME --state 'x1,x2,..' --inputs 'u1,..' [--include_noise]
 //   excite add NAME [FILE]
 //   excite export NAME FILE
+//   excite export-model NAME FILE
 //   excite import FILE [--id ID]
 // The session is the first argument after the command everywhere (--session NAME
 // is kept for predict and plan; --session_id for import's --id).
@@ -117,6 +118,7 @@ constexpr char kUsage[] =
     "                    (CSV x0..,u0..,x0_next..[,sequence], as excite-sim\n"
     "                    --trajectory writes it; stdin without FILE)\n"
     "  export NAME FILE\n"
+    "  export-model NAME FILE   (the fitted model, to predict without a server)\n"
     "  import FILE [--id=ID]\n"
     "NAME is sessions/{id} or {id}. Connection: --tls_ca, --tls_cert, --tls_key,\n"
     "--auth_token_file; --max_message_mb for big exports. --help lists every flag,\n"
@@ -463,6 +465,33 @@ int Rollout(excite::client::ExciteClient& client, const std::vector<std::string>
   return 0;
 }
 
+int ExportModel(excite::client::ExciteClient& client,
+                const std::vector<std::string>& args) {
+  if (args.size() != 3) return UsageError("export-model NAME FILE");
+  const std::string name = FullName(args[1]);
+  absl::StatusOr<excite::v1::ExportModelResponse> exported = client.ExportModel(name);
+  if (!exported.ok()) return Fail(exported.status());
+  std::ofstream file(args[2], std::ios::binary | std::ios::trunc);
+  file << exported->model_file();
+  file.close();
+  if (!file) {
+    std::fprintf(stderr, "excite: cannot write %s\n", args[2].c_str());
+    return 1;
+  }
+  if (Json()) {
+    excite::v1::ExportModelResponse summary = *exported;
+    summary.clear_model_file();
+    PrintJson(summary);
+    return 0;
+  }
+  std::printf(
+      "wrote %s: model file format %u, model_version %lld, %lld samples, %zu bytes\n",
+      args[2].c_str(), exported->format_version(),
+      static_cast<long long>(exported->model_version()),
+      static_cast<long long>(exported->sample_count()), exported->model_file().size());
+  return 0;
+}
+
 int Export(excite::client::ExciteClient& client, const std::vector<std::string>& args) {
   if (args.size() != 3) return UsageError("export NAME FILE");
   const std::string name = FullName(args[1]);
@@ -646,8 +675,8 @@ std::string UnknownCommand(const std::string& command) {
   const std::string lower = absl::AsciiStrToLower(command);
   std::string best;
   size_t best_distance = 3;  // suggest only within 2 edits
-  for (const char* known :
-       {"sessions", "predict", "plan", "rollout", "history", "add", "export", "import"}) {
+  for (const char* known : {"sessions", "predict", "plan", "rollout", "history", "add",
+                            "export", "export-model", "import"}) {
     const size_t d = EditDistance(lower, known);
     if (d < best_distance || absl::StartsWith(known, lower)) {
       best_distance = std::min(d, best_distance);
@@ -695,6 +724,7 @@ int main(int argc, char** argv) {
   if (command == "predict") return Predict(*client, args);
   if (command == "plan") return Plan(*client, args);
   if (command == "rollout") return Rollout(*client, args);
+  if (command == "export-model") return ExportModel(*client, args);
   if (command == "history") return History(*client, args);
   return UsageError(UnknownCommand(command));
 }

@@ -174,6 +174,14 @@ absl::StatusOr<v1::RolloutResponse> ExciteClient::Rollout(
                options_.default_deadline, Resend::kAfterLostAnswer);
 }
 
+absl::StatusOr<v1::ExportModelResponse> ExciteClient::ExportModel(
+    const std::string& name) {
+  v1::ExportModelRequest request;
+  request.set_name(name);
+  return Unary(&v1::ExplorationService::Stub::ExportModel, request, name,
+               options_.default_deadline, Resend::kAfterLostAnswer);
+}
+
 absl::StatusOr<v1::SessionHistory> ExciteClient::GetSessionHistory(
     const std::string& name) {
   v1::GetSessionHistoryRequest request;

@@ -106,6 +106,9 @@ class ExciteClient {
   absl::StatusOr<v1::Session> GetSession(const std::string& name);
   // The model rolled forward along an input sequence (Rollout).
   absl::StatusOr<v1::RolloutResponse> Rollout(const v1::RolloutRequest& request);
+  // The session's fitted model as a model file (ExportModel; read it with
+  // excite::LoadedModel, model_file/loaded_model.h).
+  absl::StatusOr<v1::ExportModelResponse> ExportModel(const std::string& name);
   // The session's plans, batch errors and mean std so far (GetSessionHistory).
   absl::StatusOr<v1::SessionHistory> GetSessionHistory(const std::string& name);
   // `filter` as in ListSessionsRequest.filter (empty: every session).

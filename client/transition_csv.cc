@@ -28,7 +28,8 @@ std::vector<absl::string_view> Fields(absl::string_view line) {
 
 }  // namespace
 
-std::string TransitionCsvHeader(int dx, int du, const std::vector<std::string>& state_names,
+std::string TransitionCsvHeader(int dx, int du,
+                                const std::vector<std::string>& state_names,
                                 const std::vector<std::string>& input_names) {
   const bool named = state_names.size() == static_cast<size_t>(dx) &&
                      input_names.size() == static_cast<size_t>(du);

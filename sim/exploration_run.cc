@@ -438,12 +438,19 @@ absl::Status ExplorationRun::ExploreInRealTime() {
   const int64_t every = config_.evaluation().every_samples();
   const double hz = options_.realtime_hz;
   StartPlant();
-  Eigen::VectorXd first(du_);  // held until the first plan arrives
-  for (int j = 0; j < du_; ++j) {
-    first(j) = input_random_.Uniform(input_box_.lower(j), input_box_.upper(j));
-  }
-  InputSchedule schedule(first);
-  absl::Mutex mu;  // the plant's state, the queue and the schedule
+  // Until the first plan arrives, each tick draws a uniform input, as the
+  // lock-step loop does while the server cannot plan yet: a real-time run whose
+  // plans are never late applies exactly the lock-step run's inputs.
+  const auto random_input = [this] {
+    Eigen::VectorXd u(du_);
+    for (int j = 0; j < du_; ++j) {
+      u(j) = input_random_.Uniform(input_box_.lower(j), input_box_.upper(j));
+    }
+    return u;
+  };
+  InputSchedule schedule(Eigen::VectorXd::Zero(du_));
+  bool planned = false;  // a plan has arrived
+  absl::Mutex mu;        // the plant's state, the queue and the schedule
   bool done = false;
   absl::Status failure;
   RealtimeStats& stats = summary_.realtime;
@@ -508,6 +515,7 @@ absl::Status ExplorationRun::ExploreInRealTime() {
       if (round_trips_s.size() > 5) round_trips_s.pop_front();
       ++summary_.planned_by[service::StrategyShortName(plan->planned_by())];
       absl::MutexLock lock(&mu);
+      planned = true;
       if (!schedule.Install(step + pending.rows(), *inputs, samples_)) ++stats.late_plans;
     }
   });
@@ -527,8 +535,15 @@ absl::Status ExplorationRun::ExploreInRealTime() {
       break;
     }
     bool from_plan = false;
-    const Eigen::VectorXd u = schedule.Take(samples_, &from_plan);
-    ++(from_plan ? stats.ticks_from_plan : stats.ticks_fell_back);
+    Eigen::VectorXd u;
+    if (planned) {
+      u = schedule.Take(samples_, &from_plan);
+      ++(from_plan ? stats.ticks_from_plan : stats.ticks_fell_back);
+    } else {
+      u = random_input();
+      schedule.Hold(u);
+      ++random_steps_;
+    }
     if (absl::Status s = ApplyInput(u); !s.ok()) {
       failure = s;
       break;

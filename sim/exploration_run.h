@@ -57,10 +57,13 @@ struct ExplorationOptions {
   // round trip misses: ceil(L * realtime_hz) - 1, L the slowest of the last 5
   // AddData + PlanInputs round trips, at most the horizon (0 while L is below a
   // period: the plan starts from the measured state, as in lock-step). A tick with no
-  // plan row for it holds the last input applied (the stated fallback; before the
-  // first plan, one input drawn uniformly from the input bounds). Every row of a
-  // plan is applied until the next plan takes over, whatever its apply_count.
-  // The summary's `realtime` counts ticks and late plans.
+  // plan row for it holds the last input applied (the stated fallback). Until the
+  // first plan arrives each tick applies an input drawn uniformly from the input
+  // bounds, as the lock-step loop does before min_samples (random_steps), so a
+  // run whose plans are never late applies the lock-step run's inputs. Every row
+  // of a plan is applied until the next plan takes over, whatever its
+  // apply_count. The summary's `realtime` counts the other ticks (from a plan,
+  // fell back) and late plans.
   double realtime_hz = 0.0;
 };
 

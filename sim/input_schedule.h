@@ -16,7 +16,7 @@ namespace excite::sim {
 // steps from there once it arrives (Install). Not thread-safe.
 class InputSchedule {
  public:
-  // `first`: the input applied before any plan exists (and held until one does).
+  // `first`: what the fallback holds before any input was applied.
   explicit InputSchedule(Eigen::VectorXd first) : last_(std::move(first)) {}
 
   // The input for `step` (steps are taken in increasing order): the plan row for
@@ -27,6 +27,10 @@ class InputSchedule {
   // input_dim): a plan's row where there is one, else the input the plant would
   // hold there. The plant applies exactly these, whatever arrives later.
   Eigen::MatrixXd Commit(int64_t step, int count);
+
+  // Records `input` as applied outside the schedule (what the fallback then
+  // holds).
+  void Hold(Eigen::VectorXd input) { last_ = std::move(input); }
 
   // The plan whose first row is for `start` (a plan asked for after Commit(t, P)
   // has start t + P): its rows replace every row from `start` on; rows for steps

@@ -719,6 +719,43 @@ Eigen::MatrixXd DynamicsModel::PosteriorCovarianceGradient(
 
 Eigen::VectorXd DynamicsModel::prior_means() const { return state_->prior_mean; }
 
+std::optional<model::ModelData> DynamicsModel::ExportModel() const {
+  const State& s = *state_;
+  if (!s.fitted) return std::nullopt;
+  model::ModelData data;
+  data.state_dim = s.state_dim;
+  data.input_dim = s.input_dim;
+  data.delta = s.options.target == Target::kDelta;
+  data.angle_dims = s.features.angles();
+  data.feature_center = s.center;
+  data.feature_half_width = s.half_width;
+  data.prior_mean = s.prior_mean;
+  data.output_std = s.out_std;
+  data.noise_variance = noise_variances();
+  data.sample_count = s.n();
+  for (int j = 0; j < s.state_dim; ++j) {
+    model::OutputData o;
+    if (s.sparse) {
+      const SparseGpModel& gp = s.sparse_gps[static_cast<size_t>(j)];
+      o.signal_variance = gp.hyperparameters().signal_variance;
+      o.lengthscales = gp.hyperparameters().lengthscales;
+      o.points = gp.inputs()(gp.inducing_indices(), Eigen::all);
+      o.weights = gp.weights();
+      o.factor = gp.kernel_factor();
+      o.sparse_factor = gp.b_factor();
+    } else {
+      const GpModel& gp = s.gps[static_cast<size_t>(j)];
+      o.signal_variance = gp.hyperparameters().signal_variance;
+      o.lengthscales = gp.hyperparameters().lengthscales;
+      o.points = gp.inputs();
+      o.weights = gp.alpha();
+      o.factor = gp.cholesky();
+    }
+    data.outputs.push_back(std::move(o));
+  }
+  return data;
+}
+
 Eigen::VectorXd DynamicsModel::noise_variances() const {
   const State& s = *state_;
   Eigen::VectorXd out(s.state_dim);

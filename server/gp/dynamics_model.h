@@ -8,6 +8,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "model_file/model_data.h"
 #include "server/gp/dynamics_predictor.h"
 #include "server/gp/hyperparameter_fit.h"
 #include "server/gp/hyperparameters.h"
@@ -192,6 +193,10 @@ class DynamicsModel final : public DynamicsPredictor {
   // Per output, what the last fit left at a bound of options.fit (HitBounds);
   // empty unless fitted with fit_kernel.
   std::vector<BoundHits> bound_hits() const;
+  // What Predict depends on, for a model file (model_file/model_data.h): the
+  // normalisation, prior means, output scales, noise variances and, per output,
+  // the GP's points, weights and factors. nullopt unless fitted().
+  std::optional<model::ModelData> ExportModel() const;
   // True when the outputs are sparse GPs.
   bool sparse() const;
   // Inducing points of each output (empty unless sparse()).

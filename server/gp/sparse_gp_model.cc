@@ -220,6 +220,18 @@ void SparseGpModel::UpdateWeights() {
       weights_);
 }
 
+Eigen::MatrixXd SparseGpModel::kernel_factor() const {
+  Eigen::MatrixXd l = Eigen::MatrixXd::Zero(m_, m_);
+  l.triangularView<Eigen::Lower>() = l_.topLeftCorner(m_, m_);
+  return l;
+}
+
+Eigen::MatrixXd SparseGpModel::b_factor() const {
+  Eigen::MatrixXd l = Eigen::MatrixXd::Zero(m_, m_);
+  l.triangularView<Eigen::Lower>() = lb_.topLeftCorner(m_, m_);
+  return l;
+}
+
 void SparseGpModel::Predict(const Eigen::MatrixXd& xs, Eigen::VectorXd* mean,
                             Eigen::VectorXd* variance, Eigen::MatrixXd* mean_jacobian,
                             Eigen::MatrixXd* variance_jacobian) const {

@@ -62,7 +62,12 @@ class SparseGpModel {
   const Eigen::MatrixXd& inputs() const { return x_; }
   const Eigen::VectorXd& targets() const { return y_; }
   // Row indices into inputs() of the inducing points, in the order chosen.
-  const Eigen::VectorXi& inducing_indices() const { return inducing_; }
+  Eigen::VectorXi inducing_indices() const { return inducing_.head(m_); }
+  // What Predict uses (see above): mean(x) = k(x, Z) weights(); the lower
+  // factors L = chol(Kzz) and L_B = chol(B) (m x m copies).
+  const Eigen::VectorXd& weights() const { return weights_; }
+  Eigen::MatrixXd kernel_factor() const;
+  Eigen::MatrixXd b_factor() const;
 
   // As GpModel::Predict: for m points xs (m x d), latent posterior mean and
   // variance (clamped at 0) and, if not null, their Jacobians w.r.t. xs (m x d,

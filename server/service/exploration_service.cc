@@ -11,6 +11,7 @@
 #include "absl/strings/strip.h"
 #include "absl/time/clock.h"
 #include "common/logging.h"
+#include "model_file/model_file.h"
 #include "server/service/config_validation.h"
 #include "server/service/field_violation.h"
 #include "server/service/grpc_status.h"
@@ -191,6 +192,33 @@ grpc::Status ExplorationService::GetSessionHistory(
     absl::StatusOr<session::LearningHistory> history = registry_->History(*id);
     if (!history.ok()) return history.status();
     *response = HistoryToProto(*history);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status ExplorationService::ExportModel(grpc::ServerContext* context,
+                                             const v1::ExportModelRequest* request,
+                                             v1::ExportModelResponse* response) {
+  return RunRpc("ExportModel", request->name(), [&]() -> absl::Status {
+    absl::StatusOr<std::shared_ptr<Session>> session =
+        FindUndamagedSession(request->name(), "name");
+    if (!session.ok()) return session.status();
+    absl::StatusOr<session::ModelExport> exported = (*session)->ExportModel(
+        BudgetDeadline(*context, (*session)->spec().time_budget_s),
+        [context]() { return context->IsCancelled(); });
+    if (!exported.ok()) return exported.status();
+    std::string file = model::EncodeModelFile(exported->model);
+    if (file.size() + 64 > static_cast<size_t>(limits_.max_message_bytes)) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "the model file of ", request->name(), " (", exported->model.sample_count,
+          " samples) is ", file.size(),
+          " bytes, more than this server's message limit of ", limits_.max_message_bytes,
+          " bytes: restart excite-server with a larger --max_message_mb to export it"));
+    }
+    response->set_model_file(std::move(file));
+    response->set_format_version(model::kModelFileVersion);
+    response->set_model_version(exported->model_version);
+    response->set_sample_count(exported->model.sample_count);
     return absl::OkStatus();
   });
 }

@@ -54,6 +54,9 @@ class ExplorationService final : public v1::ExplorationService::Service {
                           v1::Session* response) override;
   grpc::Status Rollout(grpc::ServerContext* context, const v1::RolloutRequest* request,
                        v1::RolloutResponse* response) override;
+  grpc::Status ExportModel(grpc::ServerContext* context,
+                           const v1::ExportModelRequest* request,
+                           v1::ExportModelResponse* response) override;
   grpc::Status GetSessionHistory(grpc::ServerContext* context,
                                  const v1::GetSessionHistoryRequest* request,
                                  v1::SessionHistory* response) override;

@@ -664,6 +664,21 @@ absl::StatusOr<RolloutResult> Session::Rollout(const Eigen::VectorXd& state,
   return result;
 }
 
+absl::StatusOr<ModelExport> Session::ExportModel(Clock::time_point refit_deadline,
+                                                 std::function<bool()> cancelled) {
+  const CallScope call(this);
+  absl::MutexLock lock(&mu_);
+  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  if (absl::Status s = EnsureFitted(refit_deadline, cancelled); !s.ok()) return s;
+  std::optional<model::ModelData> data = model_->ExportModel();
+  if (!data.has_value()) {
+    return absl::InternalError(
+        absl::StrCat("session ", name_, ": the model is not fitted after its refit"));
+  }
+  data->model_version = model_version_;
+  return ModelExport{*std::move(data), model_version_};
+}
+
 absl::Status Session::CheckPlanShape(const plan::Plan& plan, bool model_free) const {
   const Eigen::Index horizon = plan.inputs.rows();
   const Eigen::Index predicted = model_free ? 0 : horizon;  // model-free: no predictions

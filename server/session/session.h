@@ -60,6 +60,12 @@ struct RolloutResult {
   int64_t model_version = 0;
 };
 
+// Session::ExportModel: what the model's predictions depend on, and its version.
+struct ModelExport {
+  model::ModelData model;
+  int64_t model_version = 0;
+};
+
 // One Session::PlanInputs: the plan, the solver's summary and the model version
 // it was planned on.
 struct PlanResult {
@@ -248,6 +254,11 @@ class Session {
                                      Clock::time_point refit_deadline,
                                      Clock::time_point deadline,
                                      std::function<bool()> cancelled);
+
+  // The fitted model as a model file holds it (gp::DynamicsModel::ExportModel),
+  // after the lazy refit Predict would do (same errors).
+  absl::StatusOr<ModelExport> ExportModel(Clock::time_point refit_deadline,
+                                          std::function<bool()> cancelled);
 
   // The state distribution from x_0 ~ N(state, diag(state_variance)) along
   // `inputs` (steps x input_dim; shapes and values checked by the caller),

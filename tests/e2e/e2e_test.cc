@@ -437,6 +437,13 @@ TEST_F(EndToEndTest, CliDoesAFirstWorkflowAlone) {
   EXPECT_NE(out.find("\n   3 | "), std::string::npos) << out;
   EXPECT_EQ(RunCli({"rollout", "first", "--state=0.1,0"}, &out, &err), 2);  // no inputs
   EXPECT_NE(err.find("--inputs must be"), std::string::npos) << err;
+  // The model taken home: a model file that starts as the format says.
+  const std::string model_path = work_.path() + "/first.model";
+  ASSERT_EQ(RunCli({"export-model", "first", model_path}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("model file format 1"), std::string::npos) << out;
+  std::string magic(8, '\0');
+  std::ifstream(model_path, std::ios::binary).read(magic.data(), 8);
+  EXPECT_EQ(magic, "EXCITEMF");
   // A typo gets a suggestion; the version says what was built.
   EXPECT_EQ(RunCli({"pridict", "first"}, &out, &err), 2);
   EXPECT_NE(err.find("unknown command \"pridict\" (did you mean predict?)"),

@@ -140,7 +140,8 @@ def test_installs_into_a_venv_and_runs_without_protoc_or_sources(server, tmp_pat
     assert report["prediction_shape"] == [2, 2] and report["plan_shape"] == [3, 1]
 
     # Every example runs against the installed package (short runs).
-    short = {"duffing.py": ["--samples=30", "--every=10", "--horizon=5", "--points=200"]}
+    short = {"duffing.py": ["--samples=30", "--every=10", "--horizon=5", "--points=200"],
+             "mpc_pendulum.py": ["--samples=30", "--steps=10"]}
     examples = sorted((REPO / "client" / "python" / "examples").glob("*.py"))
     assert [e.name for e in examples] == sorted(short), "give a new example its short run"
     for example in examples:

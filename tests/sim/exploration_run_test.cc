@@ -111,11 +111,11 @@ class FakeService final : public v1::ExplorationService::Service {
         {static_cast<int64_t>(transitions_.size()),
          {request->pending_inputs().begin(), request->pending_inputs().end()}});
     reply->set_start_step(request->pending_inputs_size());
-    if (distinct_plans_) {  // plan k's row i: 0.01 k + 0.001 i (inside the bounds)
+    if (distinct_plans_) {  // at n samples, row i: 0.01 n + 0.001 i (inside the bounds)
       reply->set_horizon(config_.horizon());
       reply->set_apply_count(1);
       for (int i = 0; i < config_.horizon(); ++i) {
-        reply->add_inputs(0.01 * plan_calls_ + 0.001 * i);
+        reply->add_inputs(0.01 * static_cast<double>(transitions_.size()) + 0.001 * i);
       }
       if (transitions_.size() >= 2) return grpc::Status::OK;
     }
@@ -131,6 +131,16 @@ class FakeService final : public v1::ExplorationService::Service {
     reply->set_horizon(horizon);
     reply->set_apply_count(config_.strategy() == v1::STRATEGY_PA ? horizon : 1);
     return grpc::Status::OK;
+  }
+
+  // Forgets the data and calls of a run (the options stay).
+  void Reset() {
+    std::lock_guard<std::mutex> lock(mu_);
+    transitions_.clear();
+    sequences_.clear();
+    batch_sizes_.clear();
+    pending_.clear();
+    plan_calls_ = 0;
   }
 
   std::mutex mu_;
@@ -261,7 +271,7 @@ TEST_F(ExplorationRunTest, RealTimePlantAppliesWhatItCommittedTo) {
   EXPECT_EQ(summary->samples, 60);
   const RealtimeStats& rt = summary->realtime;
   EXPECT_EQ(rt.hz, 100);
-  EXPECT_EQ(rt.ticks_from_plan + rt.ticks_fell_back, 60);
+  EXPECT_EQ(rt.ticks_from_plan + rt.ticks_fell_back + summary->random_steps, 60);
   EXPECT_GT(rt.ticks_from_plan, 20);
   EXPECT_GT(summary->plans, 5);
   EXPECT_NE(RunSummaryToJson(*summary).find("\"realtime\": {\"hz\": 100, "),
@@ -287,6 +297,32 @@ TEST_F(ExplorationRunTest, RealTimePlantAppliesWhatItCommittedTo) {
     EXPECT_EQ(t[k].state(0), t[k - 1].next_state(0));
     EXPECT_EQ(t[k].sequence(), static_cast<int64_t>(k));
   }
+}
+
+// Plans that are never late (the fake answers in a millisecond, a tick is 100
+// ms): the real-time plant applies exactly the lock-step run's inputs, random
+// ones until the first plan included, and measures the same states.
+TEST_F(ExplorationRunTest, RealTimeWithTimelyPlansAppliesTheLockStepInputs) {
+  config_.set_samples(25);
+  service_->distinct_plans_ = true;
+  absl::StatusOr<RunSummary> lock_step = Run();
+  ASSERT_TRUE(lock_step.ok()) << lock_step.status();
+  const std::vector<v1::Transition> expected = service_->transitions_;
+  service_->Reset();
+  ExplorationOptions options;
+  options.realtime_hz = 10;
+  absl::StatusOr<RunSummary> real_time = Run(options);
+  ASSERT_TRUE(real_time.ok()) << real_time.status();
+  EXPECT_EQ(real_time->realtime.late_plans, 0);
+  EXPECT_EQ(real_time->random_steps, lock_step->random_steps);
+  const std::vector<v1::Transition>& t = service_->transitions_;
+  ASSERT_EQ(t.size(), expected.size());
+  for (size_t k = 0; k < t.size(); ++k) {
+    EXPECT_EQ(t[k].input(0), expected[k].input(0)) << k;
+    EXPECT_EQ(t[k].next_state(0), expected[k].next_state(0)) << k;
+    EXPECT_EQ(t[k].next_state(1), expected[k].next_state(1)) << k;
+  }
+  EXPECT_EQ(real_time->final_rmse, lock_step->final_rmse);
 }
 
 TEST_F(ExplorationRunTest, KeepSession) {

@@ -7,6 +7,7 @@
         result = session.add(states, inputs, next_states) # excite.AddResult
         prediction = session.predict(z)      # .mean, .variance: (n, state_dim)
         data = session.samples()             # excite.Samples: numpy arrays
+        model = session.export_model("m.model")  # excite.Model: no server needed
 
 ``excite.aio`` has the same calls as coroutines (grpc.aio). The protobuf and gRPC
 stubs are importable as ``excite.v1.exploration_service_pb2`` etc. (also
@@ -20,6 +21,7 @@ from excite._common import (AddResult, History, Plan, Prediction, Rollout, Sampl
                             session_config)
 from excite._pb import config_pb, pb
 from excite.client import SESSION_HEADER, Client, Session, TransitionStream
+from excite.model import Model, ModelFileError, ModelPrediction
 from excite.errors import (Aborted, AlreadyExists, Cancelled, DataLoss, DeadlineExceeded,
                            ExciteError, FailedPrecondition, Internal, InvalidArgument,
                            NotFound, OutOfRange, PermissionDenied, ResourceExhausted,
@@ -31,6 +33,9 @@ __version__ = "0.1.0"
 __all__ = [
     "AddResult",
     "Client",
+    "Model",
+    "ModelFileError",
+    "ModelPrediction",
     "ExciteError",
     "Aborted",
     "AlreadyExists",

@@ -36,6 +36,7 @@ from excite._common import (AddResult, ArchiveLike, ConfigLike, History, Plan, P
                             Rollout, Samples)
 from excite._pb import config_pb, pb, pb_grpc
 from excite.errors import AioCheckedStub
+from excite.model import Model
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -243,6 +244,17 @@ class Session(_common.SessionView):
         reply = await self.client._calls.Rollout(request, timeout=self.client.timeout_s,
                                                  metadata=self.metadata)
         return _common.rollout(reply, self.state_dim)
+
+    async def export_model(self, path: Optional[PathLike] = None) -> Model:
+        """The fitted model, to predict without a server (see
+        :meth:`excite.Session.export_model`)."""
+        reply = await self.client._calls.ExportModel(
+            pb.ExportModelRequest(name=self.name), timeout=self.client.timeout_s,
+            metadata=self.metadata)
+        if path is not None:
+            with open(path, "wb") as f:
+                f.write(reply.model_file)
+        return Model(reply.model_file)
 
     async def history(self) -> History:
         """The plans and learning curve so far (see :meth:`excite.Session.history`)."""

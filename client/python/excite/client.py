@@ -34,6 +34,7 @@ from excite._common import (  # noqa: F401  (re-exported: excite.client.X still 
 )
 from excite._pb import config_pb, pb, pb_grpc
 from excite.errors import CheckedStub, converted
+from excite.model import Model
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -313,6 +314,18 @@ class Session(_common.SessionView):
         reply = self.client.stub.Rollout(request, timeout=self.client.timeout_s,
                                          metadata=self.metadata)
         return _common.rollout(reply, self.state_dim)
+
+    def export_model(self, path: Optional[PathLike] = None) -> Model:
+        """The session's fitted model as a :class:`excite.Model` that predicts without
+        a server; with `path`, its model file is also written there (read it back
+        with ``excite.Model.load(path)``, or in C++ with ``excite::LoadedModel``)."""
+        reply = self.client.stub.ExportModel(pb.ExportModelRequest(name=self.name),
+                                             timeout=self.client.timeout_s,
+                                             metadata=self.metadata)
+        if path is not None:
+            with open(path, "wb") as f:
+                f.write(reply.model_file)
+        return Model(reply.model_file)
 
     def history(self) -> History:
         """The session's plans and learning curve so far (:class:`History`)."""
