@@ -16,7 +16,6 @@ Writes DIR/runs.csv (one row per run) and DIR/report.md. Standard library only.
 import argparse
 import csv
 import json
-import math
 import os
 import statistics
 import subprocess
@@ -26,6 +25,9 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.abspath(os.path.join(HERE, "..", ".."))
+sys.path.insert(0, os.path.join(REPO, "bench", "paper"))
+
+from aggregate import paired_ratio  # noqa: E402  (the paper benchmark's paired bootstrap)
 BUILD = os.path.join(REPO, "build", "release")
 # The issue's grid: the pendulum at 20 and 50 Hz, the unicycle at 20 Hz.
 GRID = {"pendulum": [20.0, 50.0], "unicycle": [20.0]}
@@ -77,8 +79,8 @@ def report(rows):
     """Per (system, strategy, rate): paired RMSE ratios to lock-step and fallback share."""
     lock = {(r["system"], r["strategy"], int(r["seed"])): float(r["final_rmse"])
             for r in rows if float(r["hz"]) == 0}
-    lines = ["| system | strategy | rate | trials | RMSE ratio to lock-step, geometric mean "
-             "(each seed) | fallback share | late plans | plan ms p50 / p99 |",
+    lines = ["| system | strategy | rate | seeds | final RMSE, real-time / lock-step: geometric "
+             "mean [90 % interval], wins | fell back | late plans | plan ms p50 / p99 |",
              "|---|---|---|---|---|---|---|---|"]
     for system, rates in GRID.items():
         for strategy in STRATEGIES:
@@ -88,9 +90,9 @@ def report(rows):
                         (system, strategy, int(r["seed"])) in lock]
                 if not runs:
                     continue
-                ratios = [float(r["final_rmse"]) / lock[(system, strategy, int(r["seed"]))]
-                          for r in runs]
-                geo = math.exp(statistics.fmean(math.log(x) for x in ratios))
+                paired = paired_ratio({int(r["seed"]): float(r["final_rmse"]) for r in runs},
+                                      {k[2]: v for k, v in lock.items()
+                                       if k[:2] == (system, strategy)})
                 ticks = sum(int(r["ticks_from_plan"]) + int(r["ticks_fell_back"]) for r in runs)
                 fell = sum(int(r["ticks_fell_back"]) for r in runs)
                 late = sum(int(r["late_plans"]) for r in runs)
@@ -98,9 +100,10 @@ def report(rows):
                 p50 = statistics.median(float(r["plan_ms_p50"]) for r in runs)
                 p99 = max(float(r["plan_ms_p99"]) for r in runs)
                 lines.append(
-                    f"| {system} | {strategy} | {hz:g} Hz | {len(runs)} | {geo:.2f} "
-                    f"({', '.join(f'{x:.2f}' for x in ratios)}) | {100 * fell / ticks:.1f} % | "
-                    f"{late} of {plans} | {p50:.0f} / {p99:.0f} |")
+                    f"| {system} | {strategy} | {hz:g} Hz | {len(runs)} | {paired['ratio']:.2f} "
+                    f"[{paired['low']:.2f}, {paired['high']:.2f}], {paired['wins']} of "
+                    f"{paired['seeds']} | {100 * fell / ticks:.1f} % | {late} of {plans} | "
+                    f"{p50:.0f} / {p99:.0f} |")
     return "\n".join(lines) + "\n"
 
 
