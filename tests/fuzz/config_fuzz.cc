@@ -89,8 +89,10 @@ void CheckRequests(const v1::SessionConfig& config, const std::string& bytes) {
                                 predict.inputs(), 1000);
   }
   v1::PlanInputsRequest plan;
-  if (plan.ParseFromString(bytes))
-    (void)ValidatePlanState({config.state_dim(), config.input_dim()}, plan.state());
+  if (plan.ParseFromString(bytes)) {
+    (void)ValidatePlanRequest({config.state_dim(), config.input_dim()}, config.horizon(),
+                              plan);
+  }
 }
 
 void Exercise(const v1::SessionConfig& config, const std::string& bytes) {
