@@ -68,6 +68,18 @@ absl::Status LoadedModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mea
   if (variance != nullptr) variance->resize(z.rows(), d.state_dim);
   for (int j = 0; j < d.state_dim; ++j) {
     const model::OutputData& o = d.outputs[static_cast<size_t>(j)];
+    const double scale = d.output_std(j);
+    if (o.points.rows() == 0) {  // a sparse GP without inducing points: its prior
+      if (mean != nullptr) {
+        mean->col(j).setConstant(d.prior_mean(j));
+        if (d.delta) mean->col(j) += z.col(j);
+      }
+      if (variance != nullptr) {
+        variance->col(j).setConstant(scale * scale * o.signal_variance +
+                                     (include_noise ? d.noise_variance(j) : 0.0));
+      }
+      continue;
+    }
     const Eigen::MatrixXd a = normalised * o.lengthscales.cwiseInverse().asDiagonal();
     const Eigen::MatrixXd p = o.points * o.lengthscales.cwiseInverse().asDiagonal();
     Eigen::MatrixXd k(p.rows(), a.rows());  // points x queries
@@ -76,7 +88,6 @@ absl::Status LoadedModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mea
                   (-0.5 * (p.rowwise() - a.row(q)).rowwise().squaredNorm()).array().exp())
                      .matrix();
     }
-    const double scale = d.output_std(j);
     if (mean != nullptr) {
       mean->col(j) =
           (d.prior_mean(j) + scale * (k.transpose() * o.weights).array()).matrix();

@@ -106,7 +106,9 @@ absl::Status SparseGpModel::Reset(Eigen::MatrixXd x, Eigen::VectorXd y,
         CrossCovariance(z_scaled_.topRows(m_), x_scaled_.middleRows(start, count), sf2) /
         sn;
     SolveLower(l_.topLeftCorner(m_, m_), a);
-    b.selfadjointView<Eigen::Lower>().rankUpdate(a);
+    // No inducing points (a signal too weak to need one: the prior) leaves B
+    // empty, and Eigen's rank update binds a reference to its null data (UBSan).
+    if (m_ > 0) b.selfadjointView<Eigen::Lower>().rankUpdate(a);
     ay_.noalias() += a * y_.segment(start, count) / sn;
     a1_.noalias() += a.rowwise().sum() / sn;
   }

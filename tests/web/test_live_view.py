@@ -15,6 +15,7 @@ import math
 import os
 import pathlib
 import re
+import signal
 import subprocess
 import time
 import urllib.error
@@ -64,7 +65,7 @@ def exploring(tmp_path_factory):
              f"--config={REPO}/sim/configs/pendulum.textproto", "--strategy=rec",
              "--samples=2000", "--keep_session"],
             stdout=open(work / "sim.log", "w"), stderr=subprocess.STDOUT, env=env)
-        yield f"http://127.0.0.1:{web_port}", work
+        yield f"http://127.0.0.1:{web_port}", work, sim
     finally:
         if sim is not None:
             sim.kill()
@@ -98,7 +99,7 @@ def browser():
 
 
 def test_the_api_wants_the_token(exploring):
-    base, _ = exploring
+    base, _, _ = exploring
     status, body = get(f"{base}/api/sessions")
     assert status == 401 and body["code"] == "UNAUTHENTICATED", body
     status, body = get(f"{base}/api/sessions", "wrong-token")
@@ -153,7 +154,7 @@ PLOTS = ("plot-curve", "plot-states", "plot-std", "plot-rollout", "plot-objectiv
 
 
 def test_the_page_shows_the_running_session_and_updates(exploring, browser):
-    base, work = exploring
+    base, work, sim = exploring
     # No session in the address: the page shows the newest one without a click.
     browser.get(f"{base}/#token={TOKEN}")
     session_id = wait_for("a session chosen", lambda: (
@@ -225,17 +226,26 @@ def test_the_page_shows_the_running_session_and_updates(exploring, browser):
                            "lengthscale theta_dot", "lengthscale tau"], header
     rows = browser.find_elements(By.CSS_SELECTOR, "#hyperparameters tbody tr")
     assert rows[0].text.startswith("theta [rad]") and rows[1].text.startswith("theta_dot")
-    for _ in range(3):  # the page and the API read at slightly different times
-        flagged = browser.execute_script(
-            "return [...document.querySelectorAll('#hyperparameters tbody tr')].map("
-            "r => [...r.cells].map((c, k) => c.classList.contains('at-bound') && k >= 3 ? "
-            "k - 3 : -1).filter(k => k >= 0));")
-        status, session = get(f"{base}/api/sessions/{session_id}", TOKEN)
-        expected = [[int(k) for k in o.get("lengthscales_at_bound", [])]
-                    for o in session["outputs"]]
-        if flagged == expected:
-            break
-        time.sleep(1.6)
+    # The model changes at every sample (the pendulum refits each time): the plant
+    # pauses so that the page and the API show the same model version.
+    sim.send_signal(signal.SIGSTOP)
+    try:
+        def same_version():
+            text, flags = browser.execute_script(
+                "return [document.getElementById('session-facts').textContent, "
+                "[...document.querySelectorAll('#hyperparameters tbody tr')].map("
+                "r => [...r.cells].map((c, k) => c.classList.contains('at-bound') && k >= 3 ? "
+                "k - 3 : -1).filter(k => k >= 0))];")
+            shown = re.search(r"model version (\d+)", text)
+            status, now = get(f"{base}/api/sessions/{session_id}", TOKEN)
+            if status == 200 and shown and int(shown.group(1)) == int(now["model_version"]):
+                return flags, now
+            return None
+        flagged, session = wait_for("the page at the API's model version", same_version)
+    finally:
+        sim.send_signal(signal.SIGCONT)
+    expected = [[int(k) for k in o.get("lengthscales_at_bound", [])]
+                for o in session["outputs"]]
     assert flagged == expected
 
     # Canvases follow their box (the grid's column) in device pixels.
@@ -263,7 +273,7 @@ def test_the_page_shows_the_running_session_and_updates(exploring, browser):
 
 
 def test_without_the_token_the_page_asks_for_it(exploring, browser):
-    base, _ = exploring
+    base, _, _ = exploring
     browser.get(f"{base}/")
     browser.execute_script("sessionStorage.clear()")
     browser.refresh()
