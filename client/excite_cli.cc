@@ -445,7 +445,7 @@ int Rollout(excite::client::ExciteClient& client, const std::vector<std::string>
   }
   const int dx = static_cast<int>(state.size());
   const int steps = dx > 0 ? rolled->means_size() / dx : 0;
-  std::string names = "";
+  std::string names;
   if (absl::StatusOr<excite::v1::Session> session = client.GetSession(name);
       session.ok()) {
     const excite::v1::SessionConfig& c = session->config();

@@ -35,15 +35,6 @@ double MillisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-Box BoxOf(const google::protobuf::RepeatedPtrField<v1::Interval>& bounds) {
-  Box box{Eigen::VectorXd(bounds.size()), Eigen::VectorXd(bounds.size())};
-  for (int i = 0; i < bounds.size(); ++i) {
-    box.lower(i) = bounds[i].lower();
-    box.upper(i) = bounds[i].upper();
-  }
-  return box;
-}
-
 absl::Status Annotate(const absl::Status& status, absl::string_view context) {
   return absl::Status(status.code(), absl::StrCat(context, ": ", status.message()));
 }

@@ -113,4 +113,13 @@ void ApplyOverrides(const SimOverrides& overrides, v1::SimConfig* config) {
   if (overrides.seed.has_value()) config->mutable_session()->set_seed(*overrides.seed);
 }
 
+Box BoxOf(const google::protobuf::RepeatedPtrField<v1::Interval>& bounds) {
+  Box box{Eigen::VectorXd(bounds.size()), Eigen::VectorXd(bounds.size())};
+  for (int i = 0; i < bounds.size(); ++i) {
+    box.lower(i) = bounds[i].lower();
+    box.upper(i) = bounds[i].upper();
+  }
+  return box;
+}
+
 }  // namespace excite::sim

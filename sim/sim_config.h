@@ -9,6 +9,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "excite/v1/sim_config.pb.h"
+#include "sim/evaluation.h"
 
 namespace excite::sim {
 
@@ -37,6 +38,9 @@ struct SimOverrides {
   std::optional<uint64_t> seed;
 };
 void ApplyOverrides(const SimOverrides& overrides, v1::SimConfig* config);
+
+// A config's bounds (state_bounds, input_bounds) as a Box.
+Box BoxOf(const google::protobuf::RepeatedPtrField<v1::Interval>& bounds);
 
 }  // namespace excite::sim
 

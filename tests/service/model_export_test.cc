@@ -22,21 +22,13 @@ namespace {
 
 using ModelExportTest = ::excite::testing::ServiceTest;
 
-sim::Box BoxOf(const google::protobuf::RepeatedPtrField<v1::Interval>& bounds) {
-  sim::Box box{Eigen::VectorXd(bounds.size()), Eigen::VectorXd(bounds.size())};
-  for (int i = 0; i < bounds.size(); ++i) {
-    box.lower(i) = bounds[i].lower();
-    box.upper(i) = bounds[i].upper();
-  }
-  return box;
-}
-
 // The plant's own transitions from `points` states and inputs drawn uniformly
 // over the session's region (seeded).
 sim::EvaluationSet Draw(const sim::Plant& plant, const v1::SessionConfig& session,
                         int points, uint64_t seed) {
-  absl::StatusOr<sim::EvaluationSet> set = sim::MakeEvaluationSet(
-      plant, BoxOf(session.state_bounds()), BoxOf(session.input_bounds()), points, seed);
+  absl::StatusOr<sim::EvaluationSet> set =
+      sim::MakeEvaluationSet(plant, sim::BoxOf(session.state_bounds()),
+                             sim::BoxOf(session.input_bounds()), points, seed);
   EXPECT_TRUE(set.ok()) << set.status();
   return set.ok() ? *std::move(set) : sim::EvaluationSet();
 }
