@@ -66,14 +66,16 @@ absl::Status LoadedModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mea
       d.feature_half_width.cwiseInverse().asDiagonal();
   if (mean != nullptr) mean->resize(z.rows(), d.state_dim);
   if (variance != nullptr) variance->resize(z.rows(), d.state_dim);
+  // The prior mean at each query (queries x state_dim).
+  Eigen::MatrixXd prior = Eigen::MatrixXd::Zero(z.rows(), d.state_dim);
+  if (d.prior_slopes.size() > 0) prior = normalised * d.prior_slopes.transpose();
+  prior.rowwise() += d.prior_mean.transpose();
+  if (mean != nullptr && d.delta) prior += z.leftCols(d.state_dim);
   for (int j = 0; j < d.state_dim; ++j) {
     const model::OutputData& o = d.outputs[static_cast<size_t>(j)];
     const double scale = d.output_std(j);
     if (o.points.rows() == 0) {  // a sparse GP without inducing points: its prior
-      if (mean != nullptr) {
-        mean->col(j).setConstant(d.prior_mean(j));
-        if (d.delta) mean->col(j) += z.col(j);
-      }
+      if (mean != nullptr) mean->col(j) = prior.col(j);
       if (variance != nullptr) {
         variance->col(j).setConstant(scale * scale * o.signal_variance +
                                      (include_noise ? d.noise_variance(j) : 0.0));
@@ -88,11 +90,8 @@ absl::Status LoadedModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mea
                   (-0.5 * (p.rowwise() - a.row(q)).rowwise().squaredNorm()).array().exp())
                      .matrix();
     }
-    if (mean != nullptr) {
-      mean->col(j) =
-          (d.prior_mean(j) + scale * (k.transpose() * o.weights).array()).matrix();
-      if (d.delta) mean->col(j) += z.col(j);
-    }
+    if (mean != nullptr)
+      mean->col(j) = prior.col(j) + scale * (k.transpose() * o.weights);
     if (variance != nullptr) {
       const Eigen::MatrixXd v1 = o.factor.triangularView<Eigen::Lower>().solve(k);
       Eigen::ArrayXd latent =

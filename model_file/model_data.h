@@ -30,7 +30,9 @@ struct OutputData {
 // ExportModel), self-contained: a reader maps z = (x, u) to features (each
 // angle of angle_dims to its (sin, cos) pair, in place; the rest as they are),
 // normalises them, and per state dimension j predicts
-//   mean_j = prior_mean_j + output_std_j * (k . weights) [+ x_j if delta]
+//   mean_j = prior_mean_j + prior_slopes_j . a + output_std_j * (k . weights)
+//            [+ x_j if delta]
+// (a: the normalised features; prior_slopes are 0 for a constant prior mean)
 //   variance_j = output_std_j^2 * latent variance [+ noise_variance_j for a
 //   measured rather than a true next state].
 struct ModelData {
@@ -41,6 +43,7 @@ struct ModelData {
   Eigen::VectorXd feature_center;      // one per feature
   Eigen::VectorXd feature_half_width;  // one per feature
   Eigen::VectorXd prior_mean;          // state_dim, data units
+  Eigen::MatrixXd prior_slopes;        // state_dim x features (see above)
   Eigen::VectorXd output_std;          // state_dim
   Eigen::VectorXd noise_variance;      // state_dim, data units
   std::vector<OutputData> outputs;     // state_dim

@@ -96,10 +96,16 @@ std::string OutputName(size_t j, const char* what) {
 
 }  // namespace
 
+uint32_t ModelFileVersion(const ModelData& model) {
+  return model.prior_slopes.size() > 0 && !model.prior_slopes.isZero(0.0) ? 2 : 1;
+}
+
 std::string EncodeModelFile(const ModelData& model) {
   std::string out(kMagic, kMagicSize);
-  PutInteger(kModelFileVersion, &out);
-  const size_t arrays = 7 + 6 * model.outputs.size();
+  const uint32_t version = ModelFileVersion(model);
+  const bool slopes = version >= 2;
+  PutInteger(version, &out);
+  const size_t arrays = 7 + (slopes ? 1 : 0) + 6 * model.outputs.size();
   PutInteger(static_cast<uint32_t>(arrays), &out);
   Eigen::MatrixXd dims(1, 5);
   dims << model.state_dim, model.input_dim, model.delta ? 1.0 : 0.0,
@@ -113,6 +119,7 @@ std::string EncodeModelFile(const ModelData& model) {
   PutArray("feature_center", Row(model.feature_center), &out);
   PutArray("feature_half_width", Row(model.feature_half_width), &out);
   PutArray("prior_mean", Row(model.prior_mean), &out);
+  if (slopes) PutArray("prior_slopes", model.prior_slopes, &out);
   PutArray("output_std", Row(model.output_std), &out);
   PutArray("noise_variance", Row(model.noise_variance), &out);
   for (size_t j = 0; j < model.outputs.size(); ++j) {
@@ -209,6 +216,13 @@ absl::StatusOr<ModelData> DecodeModelFile(absl::string_view bytes) {
         std::make_tuple("noise_variance", Eigen::Index{model.state_dim},
                         &model.noise_variance)}) {
     if (absl::Status s = vector(name, size, out); !s.ok()) return s;
+  }
+  model.prior_slopes = Eigen::MatrixXd::Zero(model.state_dim, features);
+  if (version >= 2) {
+    absl::StatusOr<Eigen::MatrixXd> slopes =
+        arrays.Take("prior_slopes", model.state_dim, features);
+    if (!slopes.ok()) return slopes.status();
+    model.prior_slopes = *std::move(slopes);
   }
   for (int j = 0; j < model.state_dim; ++j) {
     OutputData o;

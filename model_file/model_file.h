@@ -9,9 +9,14 @@
 
 namespace excite::model {
 
-// The model file's format version this code writes and reads; a reader refuses
-// a newer one. docs/model-file.md documents the layout.
-inline constexpr uint32_t kModelFileVersion = 1;
+// The newest model file format version this code writes and reads; a reader
+// refuses a newer one. docs/model-file.md documents the layout. Version 2 adds
+// prior_slopes (a linear prior mean); a model whose slopes are all 0 is written
+// as version 1, which readers of version 1 still read.
+inline constexpr uint32_t kModelFileVersion = 2;
+
+// The version EncodeModelFile writes for `model`: the oldest that holds it.
+uint32_t ModelFileVersion(const ModelData& model);
 
 // The file's bytes: "EXCITEMF", the version (uint32), the number of arrays
 // (uint32), then each array as its name (uint32 length + bytes), its rows and

@@ -13,6 +13,8 @@
 # covered under ASan by the service tests and the pa exploration), and the replica
 # fault tests (label fault: minutes of real plants against three replicas; the
 # code they run is covered under ASan by the store and replica tests).
+# The preset compiles with -g1 (line tables only): reports keep file:line, and the
+# build takes a third less time than with -g (measured on entropy_search.cc).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)

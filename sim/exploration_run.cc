@@ -94,8 +94,9 @@ class ExplorationRun {
   void WriteTrajectory(const std::vector<v1::Transition>& stored);
   absl::Status Evaluate(int64_t samples);
   // The summary's multi-step errors: the model's mean rolled out open loop along
-  // rollouts_, one Predict per step for all trajectories.
-  absl::Status RollOut();
+  // rollouts_, one Predict per step for all trajectories; their RMSE after 10
+  // and 30 steps into *rmse_10 and *rmse_30.
+  absl::Status RollOut(double* rmse_10, double* rmse_30);
   Eigen::VectorXd Measure(const Eigen::VectorXd& x);
 
   client::ExciteClient& client_;
@@ -182,7 +183,9 @@ absl::StatusOr<RunSummary> ExplorationRun::Run() {
   if (explored.ok() && summary_.rmse_history.empty() && samples_ >= min_samples_) {
     explored = Evaluate(samples_);
   }
-  if (explored.ok()) explored = RollOut();
+  if (explored.ok()) {
+    explored = RollOut(&summary_.rollout_rmse_10, &summary_.rollout_rmse_30);
+  }
   // What became of the session, for a failure's message.
   std::string left =
       absl::StrCat("the session is kept: continue it with --resume --session_id=",
@@ -595,7 +598,12 @@ absl::Status ExplorationRun::FlushAndMaybeEvaluate() {
   const int64_t every = config_.evaluation().every_samples();
   if ((samples_ % every == 0 || samples_ == config_.samples()) &&
       samples_ >= min_samples_) {
-    return Evaluate(samples_);
+    if (absl::Status s = Evaluate(samples_); !s.ok()) return s;
+    if (summary_.midway_samples == 0 && 2 * samples_ >= config_.samples()) {
+      summary_.midway_samples = samples_;
+      summary_.midway_rmse = summary_.rmse_history.back().rmse;
+      return RollOut(&summary_.midway_rollout_rmse_10, &summary_.midway_rollout_rmse_30);
+    }
   }
   return absl::OkStatus();
 }
@@ -613,7 +621,7 @@ void ExplorationRun::WriteTrajectory(const std::vector<v1::Transition>& stored) 
   for (const v1::Transition& t : stored) out << client::TransitionCsvRow(t) << "\n";
 }
 
-absl::Status ExplorationRun::RollOut() {
+absl::Status ExplorationRun::RollOut(double* rmse_10, double* rmse_30) {
   const Eigen::Index count = rollouts_.states[0].rows();
   Eigen::MatrixXd x = rollouts_.states[0];
   v1::PredictRequest request;
@@ -634,8 +642,8 @@ absl::Status ExplorationRun::RollOut() {
     x = Eigen::Map<
         const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
         reply->mean().data(), count, dx_);
-    double* scored = k + 1 == kRolloutSteps[0]   ? &summary_.rollout_rmse_10
-                     : k + 1 == kRolloutSteps[1] ? &summary_.rollout_rmse_30
+    double* scored = k + 1 == kRolloutSteps[0]   ? rmse_10
+                     : k + 1 == kRolloutSteps[1] ? rmse_30
                                                  : nullptr;
     if (scored != nullptr) {
       absl::StatusOr<double> rmse = Rmse(x, rollouts_.states[k + 1], angle_dims_);

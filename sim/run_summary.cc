@@ -101,6 +101,10 @@ std::string RunSummaryToJson(const RunSummary& summary) {
       "  \"final_inside_95\": ", JsonNumber(summary.final_inside_95), ",\n",
       "  \"rollout_rmse_10\": ", JsonNumber(summary.rollout_rmse_10), ",\n",
       "  \"rollout_rmse_30\": ", JsonNumber(summary.rollout_rmse_30), ",\n",
+      "  \"midway_samples\": ", summary.midway_samples, ",\n",
+      "  \"midway_rmse\": ", JsonNumber(summary.midway_rmse), ",\n",
+      "  \"midway_rollout_rmse_10\": ", JsonNumber(summary.midway_rollout_rmse_10), ",\n",
+      "  \"midway_rollout_rmse_30\": ", JsonNumber(summary.midway_rollout_rmse_30), ",\n",
       "  \"coverage_marginal\": ", JsonNumber(summary.coverage_marginal),
       ",\n",                                   //
       "  \"coverage_joint\": ", joint, ",\n",  //

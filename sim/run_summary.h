@@ -51,6 +51,12 @@ struct RunSummary {
   // trajectories of a RolloutSet (exploration_run.h); NaN if not computed.
   double rollout_rmse_10 = std::numeric_limits<double>::quiet_NaN();
   double rollout_rmse_30 = std::numeric_limits<double>::quiet_NaN();
+  // The same at the first evaluation with at least half of the samples (0 and NaN
+  // if there was none).
+  int64_t midway_samples = 0;
+  double midway_rmse = std::numeric_limits<double>::quiet_NaN();
+  double midway_rollout_rmse_10 = std::numeric_limits<double>::quiet_NaN();
+  double midway_rollout_rmse_30 = std::numeric_limits<double>::quiet_NaN();
   double coverage_marginal = 0.0;        // Fraction in [0, 1].
   std::optional<double> coverage_joint;  // Not computed for state_dim > 4.
   std::vector<RmsePoint> rmse_history;   // In order of samples.
@@ -72,7 +78,8 @@ struct RunSummary {
 
 // The summary as one JSON object with the keys system, strategy, session, samples,
 // final_rmse, final_rmse_per_dimension ([...]), state_names, state_units ([...]),
-// final_nlpd, final_inside_95, rollout_rmse_10, rollout_rmse_30, coverage_marginal,
+// final_nlpd, final_inside_95, rollout_rmse_10, rollout_rmse_30, midway_samples,
+// midway_rmse, midway_rollout_rmse_10, midway_rollout_rmse_30, coverage_marginal,
 // coverage_joint, rmse_history ([[samples, rmse], ...]), plan_ms_p50, plans, planned_by
 // ({"rec": n, ...}), random_steps, plan_retries,
 // left_safe_box, wall_s, plan_ms_p90, plan_ms_p99 and, for a real-time run,

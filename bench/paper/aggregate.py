@@ -438,3 +438,36 @@ def read_csv(path):
                 if row[name]:
                     t[field] = float(row[name])
     return list(trials.values())
+
+
+def variant_section(variant_rows, reference_rows, metrics, system_labels=None):
+    """Markdown: one row per system (in the order first seen), one column per metric:
+    a variant's trials against a reference run's on the same seeds (paired_ratio)
+    as 'ratio [low, high] lower/seeds'. Rows are trials.csv rows (dicts of strings);
+    only status "ok" counts."""
+    system_labels = system_labels or {}
+
+    def number(text):
+        return float(text) if text not in (None, "") else None
+
+    def by_system(rows):
+        out = {}
+        for r in rows:
+            if r.get("status") == "ok":
+                out.setdefault(r["system"], {})[int(r["seed"])] = r
+        return out
+
+    mine, ref = by_system(variant_rows), by_system(reference_rows)
+    systems = [s for s in dict.fromkeys(r["system"] for r in variant_rows) if s in ref]
+    lines = ["| system |" + "".join(f" {m} |" for m in metrics),
+             "|---|" + "---|" * len(metrics)]
+    for system in systems:
+        cells = []
+        for metric in metrics:
+            p = paired_ratio({k: number(r.get(metric)) for k, r in mine[system].items()},
+                             {k: number(r.get(metric)) for k, r in ref[system].items()})
+            cells.append("-" if p is None else
+                         f"{p['ratio']:.3f} [{p['low']:.3f}, {p['high']:.3f}] "
+                         f"{p['wins']}/{p['seeds']}")
+        lines.append(f"| {system_labels.get(system, system)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"

@@ -568,7 +568,8 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
     with open(os.path.join(out_dir, "trials.csv"), "w", encoding="utf-8") as f:
         f.write("system,strategy,trial,seed,status,samples,final_rmse,"
                 "coverage_marginal,coverage_joint,plan_ms_p50,wall_s,final_nlpd,"
-                "final_inside_95,rollout_rmse_10,rollout_rmse_30,planned_by,error\n")
+                "final_inside_95,rollout_rmse_10,rollout_rmse_30,midway_samples,"
+                "midway_rmse,midway_rollout_rmse_30,planned_by,error\n")
         for r in trial_records:
             s = r.get("result") or {}
             vals = [r["system"], r["strategy"], r["trial"], r["seed"], r["status"],
@@ -577,6 +578,8 @@ def write_reports(out_dir, cfg, meta, trial_records, results):
                     s.get("plan_ms_p50", ""), s.get("wall_s", ""),
                     s.get("final_nlpd", ""), s.get("final_inside_95", ""),
                     s.get("rollout_rmse_10", ""), s.get("rollout_rmse_30", ""),
+                    s.get("midway_samples", ""), s.get("midway_rmse", ""),
+                    s.get("midway_rollout_rmse_30", ""),
                     " ".join(f"{k}:{v}" for k, v in (s.get("planned_by") or {}).items())]
             vals = ["" if v is None else str(v) for v in vals]
             err = (r.get("error") or "").replace('"', "'")

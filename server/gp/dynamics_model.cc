@@ -59,6 +59,32 @@ Hyperparameters ToData(const Hyperparameters& h, const Eigen::VectorXd& half_wid
   return d;
 }
 
+// A prior mean: intercept (one per output) + slopes (outputs x features) . the
+// normalised features.
+struct PriorFit {
+  Eigen::VectorXd intercept;
+  Eigen::MatrixXd slopes;
+};
+
+// The least-squares affine fit of the targets (n x outputs) on the normalised
+// features zn of the first `count` samples (the minimum-norm one if they are
+// collinear); constant (their mean) while count <= 2 (features + 1), where it
+// would follow the noise.
+PriorFit FitLinearPriorMean(const Eigen::MatrixXd& zn, const Eigen::MatrixXd& targets,
+                            int count) {
+  const Eigen::Index p = zn.cols() + 1;
+  PriorFit fit{targets.topRows(count).colwise().mean().transpose(),
+               Eigen::MatrixXd::Zero(targets.cols(), p - 1)};
+  if (count <= 2 * p) return fit;
+  Eigen::MatrixXd design(count, p);
+  design << Eigen::VectorXd::Ones(count), zn.topRows(count);
+  const Eigen::MatrixXd coefficients =
+      design.completeOrthogonalDecomposition().solve(targets.topRows(count));
+  fit.intercept = coefficients.row(0).transpose();
+  fit.slopes = coefficients.bottomRows(p - 1).transpose();
+  return fit;
+}
+
 }  // namespace
 
 struct DynamicsModel::State {
@@ -80,9 +106,12 @@ struct DynamicsModel::State {
   bool normalisation_resolved = false;
   Eigen::VectorXd center;
   Eigen::VectorXd half_width;
-  // Prior mean of each output: the mean of all targets, refreshed at every
-  // AddSamples() so that it depends on the data only.
+  // Prior mean of each output: kConstant, the mean of all targets, refreshed at
+  // every AddSamples() so that it depends on the data only; kLinear, the
+  // intercept at the normalisation's centre, with prior_slopes (state_dim x
+  // kernel inputs, on the normalised features; zero for kConstant) from Build.
   Eigen::VectorXd prior_mean;
+  Eigen::MatrixXd prior_slopes;
   // Output scale of the fit's normalised units (refreshed at every Refit()); the
   // model in data units does not depend on it.
   Eigen::VectorXd out_std;
@@ -100,9 +129,16 @@ struct DynamicsModel::State {
     return options.target == Target::kDelta ? 2.0 * options.measurement_noise_variance
                                             : options.measurement_noise_variance;
   }
-  // Targets of output j centred on the prior mean and divided by `scale`.
+  bool linear_mean() const { return options.prior_mean == PriorMean::kLinear; }
+  // Targets of output j centred on a constant prior mean and divided by `scale`.
   Eigen::VectorXd StandardisedTargets(int j, double scale) const {
     return (targets.col(j).array() - prior_mean(j)) / scale;
+  }
+  // All targets minus a prior mean (zn: the normalised features of all data).
+  Eigen::MatrixXd Residuals(const Eigen::MatrixXd& zn, const PriorFit& prior) const {
+    Eigen::MatrixXd r = targets.rowwise() - prior.intercept.transpose();
+    if (linear_mean()) r -= zn * prior.slopes.transpose();
+    return r;
   }
   Eigen::MatrixXd NormaliseFeatures(const Eigen::MatrixXd& f) const {
     return (f.rowwise() - center.transpose()) * half_width.cwiseInverse().asDiagonal();
@@ -190,6 +226,7 @@ absl::StatusOr<DynamicsModel> DynamicsModel::Create(DynamicsModelOptions options
   state->z.resize(0, kernel_inputs);
   state->targets.resize(0, options.state_dim);
   state->prior_mean = Eigen::VectorXd::Zero(options.state_dim);
+  state->prior_slopes = Eigen::MatrixXd::Zero(options.state_dim, kernel_inputs);
   state->options = std::move(options);
   return DynamicsModel(std::move(state));
 }
@@ -306,9 +343,10 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
   s.targets.bottomRows(m) = t;
   s.samples_since_fit += static_cast<int>(m);
   // Recomputed from all targets (not updated incrementally), so a model rebuilt
-  // from the same data has bit-identical prior means.
+  // from the same data has bit-identical prior means. A linear one stays as the
+  // last Build fitted it.
   const Eigen::VectorXd old_prior_mean = s.prior_mean;
-  s.prior_mean = s.targets.colwise().mean().transpose();
+  if (!s.linear_mean()) s.prior_mean = s.targets.colwise().mean().transpose();
   if (!s.fitted) return absl::OkStatus();
   if (!s.sparse && s.options.sparse_above > 0 && s.n() > s.options.sparse_above) {
     // Crossing sparse_above between refits (or with hyperparameters that are never
@@ -317,33 +355,41 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
     if (!st.ok()) s.fitted = false;  // Refit() rebuilds from the stored data.
     return st;
   }
+  const Eigen::MatrixXd zn = s.Normalise(z);
+  // The new samples' targets on the prior mean as it was (a linear one stays).
+  const Eigen::MatrixXd old_mean =
+      (zn * s.prior_slopes.transpose()).rowwise() + old_prior_mean.transpose();
   if (s.sparse) {
     // Added on the old prior mean, then every target shifted to the new one.
-    const Eigen::MatrixXd zn = s.Normalise(z);
     for (int j = 0; j < s.state_dim; ++j) {
       absl::Status st;
       for (Eigen::Index i = 0; i < m && st.ok(); ++i) {
         st = s.sparse_gps[j].AddSample(zn.row(i).transpose(),
-                                       (t(i, j) - old_prior_mean(j)) / s.out_std(j));
+                                       (t(i, j) - old_mean(i, j)) / s.out_std(j));
       }
       if (!st.ok()) {
         s.fitted = false;  // Refit() rebuilds from the stored data.
         return st;
       }
-      s.sparse_gps[j].ShiftTargets((s.prior_mean(j) - old_prior_mean(j)) / s.out_std(j));
+      if (!s.linear_mean()) {
+        s.sparse_gps[j].ShiftTargets((s.prior_mean(j) - old_prior_mean(j)) /
+                                     s.out_std(j));
+      }
     }
     return absl::OkStatus();
   }
   // O(n^2) row appends with the current normalisation and hyperparameters, then
-  // every target re-centred on the new prior mean (two O(n^2) solves).
-  const Eigen::MatrixXd zn = s.Normalise(z);
+  // (constant mean) every target re-centred on the new prior mean (two O(n^2)
+  // solves).
   for (int j = 0; j < s.state_dim; ++j) {
     absl::Status st;
     for (Eigen::Index i = 0; i < m && st.ok(); ++i) {
-      st = s.gps[j].AddSample(zn.row(i).transpose(),
-                              (t(i, j) - s.prior_mean(j)) / s.out_std(j));
+      const double mean = s.linear_mean() ? old_mean(i, j) : s.prior_mean(j);
+      st = s.gps[j].AddSample(zn.row(i).transpose(), (t(i, j) - mean) / s.out_std(j));
     }
-    if (st.ok()) st = s.gps[j].SetTargets(s.StandardisedTargets(j, s.out_std(j)));
+    if (st.ok() && !s.linear_mean()) {
+      st = s.gps[j].SetTargets(s.StandardisedTargets(j, s.out_std(j)));
+    }
     if (!st.ok()) {
       s.fitted = false;  // Refit() rebuilds from the stored data.
       return st;
@@ -389,14 +435,22 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
     s.half_width = s.options.input_half_width;
     s.normalisation_resolved = true;
   }
+  const Eigen::MatrixXd zn = s.NormaliseFeatures(s.z);
+  // A linear prior mean is fitted on the samples of this fit (of the last one for
+  // a rebuild), so that a restored model rebuilds it from the same samples.
+  // (A count not known, as after an import of an old archive: all samples.)
+  int mean_samples = fit_hyperparameters ? n : n - s.samples_since_fit;
+  if (mean_samples < 2) mean_samples = n;
+  const PriorFit prior = s.linear_mean() ? FitLinearPriorMean(zn, s.targets, mean_samples)
+                                         : PriorFit{s.prior_mean, s.prior_slopes};
+  const Eigen::MatrixXd residuals = s.Residuals(zn, prior);
   // Output scale of the fit, floored at the measurement noise std so that a
   // (nearly) constant output does not blow up.
   const Eigen::VectorXd out_std =
-      ((s.targets.rowwise() - s.prior_mean.transpose()).colwise().squaredNorm() / n)
+      (residuals.colwise().squaredNorm() / n)
           .cwiseSqrt()
           .transpose()
           .cwiseMax(std::sqrt(s.options.measurement_noise_variance));
-  const Eigen::MatrixXd zn = s.NormaliseFeatures(s.z);
   // Long sessions: hyperparameters from a strided subset, then sparse models on
   // all the data.
   const bool sparse = s.options.sparse_above > 0 && n > s.options.sparse_above;
@@ -422,7 +476,7 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
   auto fit_output = [&](int j) {
     const ScopedFlushDenormals thread_flush;  // the fit's worker threads too
     const double var = out_std(j) * out_std(j);
-    Eigen::VectorXd y_all = s.StandardisedTargets(j, out_std(j));
+    Eigen::VectorXd y_all = residuals.col(j) / out_std(j);
     Eigen::VectorXd y = sparse ? Eigen::VectorXd(y_all(subset)) : y_all;
     if (!fit) {
       const Hyperparameters h = ToNormalised(
@@ -498,6 +552,8 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
   }
   s.sparse = sparse;
   s.out_std = out_std;
+  s.prior_mean = prior.intercept;
+  s.prior_slopes = prior.slopes;
   s.data_hyperparameters.clear();
   for (int j = 0; j < outputs; ++j) {
     const Hyperparameters& h =
@@ -610,12 +666,14 @@ void DynamicsModel::Predict(const Eigen::MatrixXd& z, Eigen::MatrixXd* mean,
     }
     if (mean != nullptr) {
       mean->col(j) = (s.prior_mean(j) + sj * mu.array()).matrix();
+      if (s.linear_mean()) mean->col(j) += zn * s.prior_slopes.row(j).transpose();
       if (delta) mean->col(j) += z.col(j);
     }
     if (variance != nullptr) variance->col(j) = sj * sj * var;
     for (Eigen::Index i = 0; i < m; ++i) {
       if (mean_jacobians != nullptr) {
-        (*mean_jacobians)[i].row(j) = (sj * dmu.row(i)).cwiseProduct(inv_h);
+        (*mean_jacobians)[i].row(j) =
+            (sj * dmu.row(i) + s.prior_slopes.row(j)).cwiseProduct(inv_h);
       }
       if (variance_jacobians != nullptr) {
         (*variance_jacobians)[i].row(j) = (sj * sj * dvar.row(i)).cwiseProduct(inv_h);
@@ -719,6 +777,12 @@ Eigen::MatrixXd DynamicsModel::PosteriorCovarianceGradient(
 
 Eigen::VectorXd DynamicsModel::prior_means() const { return state_->prior_mean; }
 
+Eigen::MatrixXd DynamicsModel::prior_mean_slopes() const {
+  const State& s = *state_;
+  if (!s.linear_mean() || !s.fitted) return Eigen::MatrixXd();
+  return s.prior_slopes * s.half_width.cwiseInverse().asDiagonal();
+}
+
 std::optional<model::ModelData> DynamicsModel::ExportModel() const {
   const State& s = *state_;
   if (!s.fitted) return std::nullopt;
@@ -730,6 +794,7 @@ std::optional<model::ModelData> DynamicsModel::ExportModel() const {
   data.feature_center = s.center;
   data.feature_half_width = s.half_width;
   data.prior_mean = s.prior_mean;
+  data.prior_slopes = s.prior_slopes;
   data.output_std = s.out_std;
   data.noise_variance = noise_variances();
   data.sample_count = s.n();

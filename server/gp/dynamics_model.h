@@ -21,6 +21,12 @@ enum class Target {
   kNext,   // each GP regresses x_{k+1}
 };
 
+// Each output's prior mean (see DynamicsModel).
+enum class PriorMean {
+  kConstant,  // the mean of all targets, refreshed at every AddSamples()
+  kLinear,    // affine in the normalised kernel inputs, fitted at every Build
+};
+
 // Everything that configures a DynamicsModel, in the units of the data.
 struct DynamicsModelOptions {
   int state_dim = 0;
@@ -32,6 +38,7 @@ struct DynamicsModelOptions {
   // (-pi, pi]. The mean stays continuous: x + the predicted difference, so a
   // state and the same state plus 2 pi predict the same up to that 2 pi.
   std::vector<int> angle_dims;
+  PriorMean prior_mean = PriorMean::kConstant;
   // Known measurement noise variance of the state (> 0).
   double measurement_noise_variance = 0.0;
   // Fit the target's noise variance (floor: measurement_noise_variance). If false
@@ -73,10 +80,15 @@ struct DynamicsModelOptions {
 
 // One independent GP (squared-exponential ARD kernel) per state dimension on
 // inputs z = (x, u): exact, or sparse above options.sparse_above samples. Each output's
-// prior mean is the mean of all its targets so far (prior_means()), refreshed at every
-// AddSamples(): the model is a function of the data and the hyperparameters only,
-// whenever Refit() ran, so a model rebuilt from the same data and hyperparameters (after
-// a restart or an import) predicts the same. For the fit, inputs are normalised with the
+// prior mean is either the mean of all its targets so far (kConstant), refreshed at
+// every AddSamples(), or (kLinear) the least-squares affine fit of its targets on the
+// normalised kernel inputs over the samples of the last fit: on all samples at a
+// Refit(), on the first sample_count() - samples_since_fit() at a Rebuild(), and fixed
+// in between. Both make the model a function of the data, the hyperparameters and
+// samples_since_fit(), so a model rebuilt from the same data and hyperparameters (after
+// a restart or an import) predicts the same. kLinear needs more than 2 (kernel_inputs()
+// + 1) samples for its fit (fewer would fit the noise); below that it is constant, the
+// mean of those samples. For the fit, inputs are normalised with the
 // fixed centre/half-width and each output is divided by its targets' standard deviation
 // at that Refit(); the model in data units does not depend on either. Not thread-safe for
 // mutation; const methods may run concurrently.
@@ -176,9 +188,13 @@ class DynamicsModel final : public DynamicsPredictor {
       const PreparedPoints& a, const std::vector<CovarianceTerm>& terms) const override;
   Eigen::VectorXd ObservationNoiseVariances() const override { return noise_variances(); }
 
-  // Prior mean of each output's target (data units): the mean of all targets so
-  // far (0 before any data).
+  // Prior mean of each output's target (data units): kConstant, the mean of all
+  // targets so far (0 before any data); kLinear, its value at the centre of the
+  // input normalisation (0 before the first fit).
   Eigen::VectorXd prior_means() const;
+  // kLinear: the prior mean's slope along each kernel input, in data units
+  // (state_dim x kernel_inputs()); empty for kConstant or before the first fit.
+  Eigen::MatrixXd prior_mean_slopes() const;
   // Noise variance of each output's target (data units), for "latent + noise".
   Eigen::VectorXd noise_variances() const;
   // Per output, in data units; empty before the first Refit() unless seeded

@@ -485,6 +485,15 @@ absl::Status ValidateSessionConfig(v1::SessionConfig* config, absl::string_view 
                 absl::StrCat("unknown value ", static_cast<int>(config->target()),
                              "; valid: TARGET_DELTA, TARGET_NEXT")));
   }
+  if (config->prior_mean() == v1::PRIOR_MEAN_UNSPECIFIED) {
+    config->set_prior_mean(v1::PRIOR_MEAN_CONSTANT);
+  }
+  if (!v1::PriorMean_IsValid(config->prior_mean())) {
+    problems.Add(
+        Invalid(Field(path, "prior_mean"),
+                absl::StrCat("unknown value ", static_cast<int>(config->prior_mean()),
+                             "; valid: PRIOR_MEAN_CONSTANT, PRIOR_MEAN_LINEAR")));
+  }
   if (config->strategy() == v1::STRATEGY_UNSPECIFIED) {
     config->set_strategy(v1::STRATEGY_REC);
   }

@@ -216,7 +216,7 @@ grpc::Status ExplorationService::ExportModel(grpc::ServerContext* context,
           " bytes: restart excite-server with a larger --max_message_mb to export it"));
     }
     response->set_model_file(std::move(file));
-    response->set_format_version(model::kModelFileVersion);
+    response->set_format_version(model::ModelFileVersion(exported->model));
     response->set_model_version(exported->model_version);
     response->set_sample_count(exported->model.sample_count);
     return absl::OkStatus();

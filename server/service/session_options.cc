@@ -39,6 +39,9 @@ gp::DynamicsModelOptions ModelOptionsFromConfig(const v1::SessionConfig& config)
   options.target =
       config.target() == v1::TARGET_NEXT ? gp::Target::kNext : gp::Target::kDelta;
   options.angle_dims.assign(config.angle_dims().begin(), config.angle_dims().end());
+  options.prior_mean = config.prior_mean() == v1::PRIOR_MEAN_LINEAR
+                           ? gp::PriorMean::kLinear
+                           : gp::PriorMean::kConstant;
   options.measurement_noise_variance = config.noise().variance();
   options.fit_noise = config.noise().fit();
   options.fit_kernel = config.kernel().fit();

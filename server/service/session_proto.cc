@@ -112,6 +112,8 @@ v1::Session SessionToProto(const SessionDescription& description) {
       out->set_log_marginal_likelihood(*output.log_marginal_likelihood);
     }
     out->set_prior_mean(output.prior_mean);
+    out->mutable_prior_mean_slopes()->Add(output.prior_mean_slopes.begin(),
+                                          output.prior_mean_slopes.end());
     out->set_inducing_points(output.inducing_points);
     out->mutable_lengthscales_at_bound()->Add(output.lengthscales_at_bound.begin(),
                                               output.lengthscales_at_bound.end());

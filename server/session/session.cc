@@ -383,12 +383,17 @@ void Session::PublishSnapshot() {
     const std::vector<double> lml = model_->log_marginal_likelihoods();
     const std::vector<int> inducing = model_->inducing_counts();
     const Eigen::VectorXd prior_means = model_->prior_means();
+    const Eigen::MatrixXd slopes = model_->prior_mean_slopes();
     const std::vector<gp::BoundHits> hits = model_->bound_hits();
     for (size_t i = 0; i < hyperparameters.size(); ++i) {
       OutputSnapshot output;
       output.hyperparameters = std::move(hyperparameters[i]);
       if (i < lml.size()) output.log_marginal_likelihood = lml[i];
       output.prior_mean = prior_means(static_cast<Eigen::Index>(i));
+      if (static_cast<Eigen::Index>(i) < slopes.rows()) {
+        const Eigen::VectorXd row = slopes.row(static_cast<Eigen::Index>(i));
+        output.prior_mean_slopes.assign(row.begin(), row.end());
+      }
       if (i < inducing.size()) output.inducing_points = inducing[i];
       if (i < hits.size()) {
         output.lengthscales_at_bound = hits[i].lengthscales;

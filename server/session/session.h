@@ -84,6 +84,8 @@ struct OutputSnapshot {
   // reported, not yet evaluated).
   std::optional<double> log_marginal_likelihood;
   double prior_mean = 0.0;
+  // A linear prior mean's slope per kernel input (data units); empty if constant.
+  std::vector<double> prior_mean_slopes;
   int inducing_points = 0;  // 0 while the output is an exact GP
   // What the last fit left at a bound (gp::HitBounds); empty for fixed ones.
   std::vector<int> lengthscales_at_bound;

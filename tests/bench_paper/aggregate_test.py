@@ -50,6 +50,21 @@ class PairedTest(unittest.TestCase):
         self.assertIsNone(aggregate.paired_ratio({0: None}, {0: 1.0}))
         self.assertIsNone(aggregate.paired_ratio({0: 1.0}, {1: 1.0}))
 
+    def test_variant_section_pairs_two_runs_by_system_and_seed(self):
+        def row(system, seed, rmse, status="ok"):
+            return {"system": system, "seed": str(seed), "status": status,
+                    "final_rmse": str(rmse), "midway_rmse": ""}
+        variant = [row("pendulum", 0, 1.0), row("pendulum", 1, 4.0),
+                   row("pendulum", 2, 0.1, status="failed"), row("dipc", 0, 3.0)]
+        reference = [row("pendulum", 0, 2.0), row("pendulum", 1, 2.0),
+                     row("pendulum", 2, 1.0), row("dipc", 0, 1.0)]
+        text = aggregate.variant_section(variant, reference, ["final_rmse", "midway_rmse"])
+        lines = text.splitlines()
+        self.assertEqual(lines[0], "| system | final_rmse | midway_rmse |")
+        # The failed trial is left out: seeds 0 and 1, ratios 0.5 and 2.
+        self.assertEqual(lines[2], "| pendulum | 1.000 [0.500, 2.000] 1/2 | - |")
+        self.assertEqual(lines[3], "| dipc | 3.000 [3.000, 3.000] 0/1 | - |")
+
     def test_sections(self):
         records = [{"system": "pendulum", "strategy": st, "seed": k,
                     "result": {"final_rmse": v, "rollout_rmse_10": v,

@@ -24,6 +24,7 @@ struct Variant {
   bool sparse;
   bool angle;
   gp::Target target;
+  gp::PriorMean prior_mean = gp::PriorMean::kConstant;
 };
 
 gp::DynamicsModel Fitted(const Variant& v) {
@@ -31,6 +32,7 @@ gp::DynamicsModel Fitted(const Variant& v) {
   o.state_dim = 2;
   o.input_dim = 1;
   o.target = v.target;
+  o.prior_mean = v.prior_mean;
   o.measurement_noise_variance = 1e-3;
   o.input_center = Eigen::Vector3d(0.0, 0.0, 0.0);
   o.input_half_width = Eigen::Vector3d(3.0, 6.0, 2.0);
@@ -91,15 +93,25 @@ TEST(LoadedModelTest, PredictsWhatTheExportedModelPredicts) {
                            Variant{"exact angle", false, true, gp::Target::kDelta},
                            Variant{"exact next", false, false, gp::Target::kNext},
                            Variant{"sparse delta", true, false, gp::Target::kDelta},
-                           Variant{"sparse angle", true, true, gp::Target::kDelta}}) {
+                           Variant{"sparse angle", true, true, gp::Target::kDelta},
+                           Variant{"exact linear angle", false, true, gp::Target::kDelta,
+                                   gp::PriorMean::kLinear},
+                           Variant{"exact linear next", false, false, gp::Target::kNext,
+                                   gp::PriorMean::kLinear},
+                           Variant{"sparse linear", true, false, gp::Target::kDelta,
+                                   gp::PriorMean::kLinear}}) {
     SCOPED_TRACE(v.name);
     const gp::DynamicsModel model = Fitted(v);
     ASSERT_EQ(model.sparse(), v.sparse);
     std::optional<model::ModelData> data = model.ExportModel();
     ASSERT_TRUE(data.has_value());
-    absl::StatusOr<LoadedModel> loaded =
-        LoadedModel::FromBytes(model::EncodeModelFile(*data));
+    const std::string bytes = model::EncodeModelFile(*data);
+    // A constant prior mean is written as version 1, which older readers read.
+    const bool linear = v.prior_mean == gp::PriorMean::kLinear;
+    EXPECT_EQ(static_cast<int>(bytes[8]), linear ? 2 : 1);
+    absl::StatusOr<LoadedModel> loaded = LoadedModel::FromBytes(bytes);
     ASSERT_TRUE(loaded.ok()) << loaded.status();
+    EXPECT_EQ(loaded->data().prior_slopes.isZero(0.0), !linear);
     EXPECT_EQ(loaded->data().sample_count, 65);
     if (v.sparse) {
       EXPECT_LT(loaded->data().outputs[0].points.rows(), 65);  // inducing points only
@@ -122,8 +134,9 @@ TEST(LoadedModelTest, PredictsWhatTheExportedModelPredicts) {
 
 TEST(LoadedModelTest, FileRoundTripsEveryNumberExactly) {
   const gp::DynamicsModel model =
-      Fitted({"sparse angle", true, true, gp::Target::kDelta});
+      Fitted({"sparse angle", true, true, gp::Target::kDelta, gp::PriorMean::kLinear});
   model::ModelData data = *model.ExportModel();
+  ASSERT_FALSE(data.prior_slopes.isZero(0.0));
   data.model_version = 42;
   testing::TempDir dir;
   const std::string path = dir.path() + "/m.model";
@@ -135,6 +148,7 @@ TEST(LoadedModelTest, FileRoundTripsEveryNumberExactly) {
   EXPECT_EQ(back.angle_dims, data.angle_dims);
   EXPECT_EQ(back.feature_half_width, data.feature_half_width);
   EXPECT_EQ(back.noise_variance, data.noise_variance);
+  EXPECT_EQ(back.prior_slopes, data.prior_slopes);
   for (size_t j = 0; j < data.outputs.size(); ++j) {
     EXPECT_EQ(back.outputs[j].points, data.outputs[j].points);
     EXPECT_EQ(back.outputs[j].factor, data.outputs[j].factor);
@@ -151,7 +165,7 @@ TEST(LoadedModelTest, RefusesWhatIsNotAModelFileAndANewerVersion) {
   newer[8] = static_cast<char>(model::kModelFileVersion + 1);  // the version's low byte
   absl::Status status = LoadedModel::FromBytes(newer).status();
   EXPECT_EQ(status.code(), absl::StatusCode::kFailedPrecondition) << status;
-  EXPECT_NE(status.message().find("format version 2; this reader knows versions up to 1"),
+  EXPECT_NE(status.message().find("format version 3; this reader knows versions up to 2"),
             std::string::npos)
       << status;
   for (const std::string& bad :

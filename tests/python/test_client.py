@@ -312,17 +312,23 @@ def test_plan_ahead_of_pending_inputs(client):
     session.delete()
 
 
-@pytest.mark.parametrize("sparse", [False, True])
-def test_exported_model_predicts_like_the_server(client, tmp_path, sparse):
+@pytest.mark.parametrize("sparse,linear_mean",
+                         [(False, False), (True, False), (False, True), (True, True)])
+def test_exported_model_predicts_like_the_server(client, tmp_path, sparse, linear_mean):
     config = linear_config(angle_dims=[0])
     if sparse:
         config["sparse"] = {"above_samples": 10, "max_inducing": 8}
+    if linear_mean:
+        config["prior_mean"] = "PRIOR_MEAN_LINEAR"
     session = client.create_session(config)
     x, u, x_next, _, _ = linear_data(30, seed=11)
     session.add(x, u, x_next)
     path = tmp_path / "linear.model"
     returned = session.export_model(path)
     model = excite.Model.load(path)
+    # A constant prior mean is written as version 1, which older readers read.
+    assert path.read_bytes()[8] == model.format_version == (2 if linear_mean else 1)
+    assert np.any(model._prior_slopes != 0) == linear_mean
     assert model.state_dim == 2 and model.input_dim == 1 and model.angle_dims == [0]
     assert model.sample_count == 30 and model.model_version == returned.model_version >= 2
     rng = np.random.default_rng(5)
@@ -342,7 +348,7 @@ def test_exported_model_predicts_like_the_server(client, tmp_path, sparse):
         model.predict(np.zeros((2, 2)))
     newer = bytearray(path.read_bytes())
     newer[8] = excite.model.FORMAT_VERSION + 1
-    with pytest.raises(excite.ModelFileError, match="format version 2; this reader knows"):
+    with pytest.raises(excite.ModelFileError, match="format version 3; this reader knows"):
         excite.Model(bytes(newer))
     with pytest.raises(excite.ModelFileError, match="not an excite model file"):
         excite.Model(path.read_bytes()[:-5])

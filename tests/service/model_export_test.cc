@@ -41,7 +41,9 @@ TEST_F(ModelExportTest, TheFilePredictsWhatTheServerPredictsOnEverySystem) {
   ASSERT_GE(configs.size(), 8u);
   for (const std::string& path : configs) {
     for (bool sparse : {false, true}) {
-      SCOPED_TRACE(path + (sparse ? " sparse" : " exact"));
+      // Linear prior mean on the sparse model: every path once per system.
+      const bool linear = sparse;
+      SCOPED_TRACE(path + (sparse ? " sparse, linear mean" : " exact"));
       absl::StatusOr<v1::SimConfig> sim_config = sim::LoadSimConfig(path);
       ASSERT_TRUE(sim_config.ok()) << sim_config.status();
       absl::StatusOr<std::unique_ptr<sim::Plant>> plant =
@@ -52,12 +54,15 @@ TEST_F(ModelExportTest, TheFilePredictsWhatTheServerPredictsOnEverySystem) {
         config.mutable_sparse()->set_above_samples(20);
         config.mutable_sparse()->set_max_inducing(12);
       }
+      if (linear) config.set_prior_mean(v1::PRIOR_MEAN_LINEAR);
       const int dx = config.state_dim();
       std::string id = std::string(sparse ? "sparse-" : "exact-") +
                        std::filesystem::path(path).stem().string();
       std::replace(id.begin(), id.end(), '_', '-');
       const std::string name = Create(id, config).name();
-      const sim::EvaluationSet data = Draw(**plant, config, 40, 1);
+      // Linear: more samples than 2 (features + 1) on every system, so it is fitted.
+      const int n = linear ? 56 : 40;
+      const sim::EvaluationSet data = Draw(**plant, config, n, 1);
       std::vector<v1::Transition> batch;
       for (Eigen::Index i = 0; i < data.inputs.rows(); ++i) {
         v1::Transition t;
@@ -72,15 +77,16 @@ TEST_F(ModelExportTest, TheFilePredictsWhatTheServerPredictsOnEverySystem) {
 
       absl::StatusOr<v1::ExportModelResponse> exported = client_->ExportModel(name);
       ASSERT_TRUE(exported.ok()) << exported.status();
-      EXPECT_EQ(exported->format_version(), model::kModelFileVersion);
-      EXPECT_EQ(exported->sample_count(), 40);
+      EXPECT_EQ(exported->format_version(), linear ? 2u : 1u);
+      EXPECT_EQ(exported->sample_count(), n);
       absl::StatusOr<LoadedModel> loaded = LoadedModel::FromBytes(exported->model_file());
       ASSERT_TRUE(loaded.ok()) << loaded.status();
       EXPECT_EQ(loaded->data().model_version, exported->model_version());
+      EXPECT_EQ(loaded->data().prior_slopes.isZero(0.0), !linear);
       // Exact: every sample is a point; sparse: the inducing points only (none for
       // an output whose fitted signal is too weak to need one: its prior).
       for (const model::OutputData& o : loaded->data().outputs) {
-        EXPECT_EQ(o.points.rows() == 40, !sparse) << o.points.rows();
+        EXPECT_EQ(o.points.rows() == n, !sparse) << o.points.rows();
       }
 
       const sim::EvaluationSet queries = Draw(**plant, config, 30, 2);

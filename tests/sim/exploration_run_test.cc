@@ -440,6 +440,22 @@ TEST_F(ExplorationRunTest, MultiStepErrorsAndCalibrationAreScored) {
   EXPECT_GT(summary->final_nlpd, 0.5 * std::log(2 * M_PI));
 }
 
+// Half of the samples is scored too: the fake is exact only from 30 of 40
+// samples, so the midway errors (at 20) are large and the final ones 0.
+TEST_F(ExplorationRunTest, MidwayErrorsAreScoredAtHalfTheSamples) {
+  config_.set_samples(40);
+  service_->exact_after = 30;
+  absl::StatusOr<RunSummary> summary = Run();
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  ASSERT_EQ(summary->rmse_history.size(), 4u);
+  EXPECT_EQ(summary->midway_samples, 20);
+  EXPECT_EQ(summary->midway_rmse, summary->rmse_history[1].rmse);
+  EXPECT_GT(summary->midway_rmse, 0.1);
+  EXPECT_GT(summary->midway_rollout_rmse_10, 0.1);
+  EXPECT_GT(summary->midway_rollout_rmse_30, 0.1);
+  EXPECT_EQ(summary->rollout_rmse_30, 0.0);
+}
+
 TEST_F(ExplorationRunTest, FailedPreconditionAfterMinSamplesIsAnError) {
   config_.set_samples(10);
   service_->refuse_plans_ = true;

@@ -21,6 +21,9 @@ RunSummary Example() {
   summary.final_nlpd = -1.5;
   summary.final_inside_95 = 0.875;
   summary.rollout_rmse_10 = 0.75;  // rollout_rmse_30 left NaN: null
+  summary.midway_samples = 10;
+  summary.midway_rmse = 1.5;
+  summary.midway_rollout_rmse_10 = 2.5;
   summary.coverage_marginal = 0.25;
   summary.coverage_joint = 0.125;
   summary.rmse_history = {{10, 1.5}, {20, 0.5}};
@@ -49,6 +52,10 @@ TEST(RunSummaryTest, Json) {
             "  \"final_inside_95\": 0.875,\n"
             "  \"rollout_rmse_10\": 0.75,\n"
             "  \"rollout_rmse_30\": null,\n"
+            "  \"midway_samples\": 10,\n"
+            "  \"midway_rmse\": 1.5,\n"
+            "  \"midway_rollout_rmse_10\": 2.5,\n"
+            "  \"midway_rollout_rmse_30\": null,\n"
             "  \"coverage_marginal\": 0.25,\n"
             "  \"coverage_joint\": 0.125,\n"
             "  \"rmse_history\": [[10, 1.5], [20, 0.5]],\n"

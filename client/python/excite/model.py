@@ -18,8 +18,9 @@ import numpy.typing as npt
 
 FloatArray = npt.NDArray[np.float64]
 
-#: The format version this reader knows; a newer file is refused.
-FORMAT_VERSION = 1
+#: The newest format version this reader knows; a newer file is refused. Version 2
+#: adds prior_slopes (a linear prior mean).
+FORMAT_VERSION = 2
 _MAGIC = b"EXCITEMF"
 _CHUNK = 256  # query points per pass
 
@@ -46,12 +47,14 @@ class _Output:
     sparse_factor: FloatArray  # (0, 0) for an exact GP
 
 
-def _arrays(data: bytes) -> Dict[str, FloatArray]:
+def _arrays(data: bytes) -> Tuple[int, Dict[str, FloatArray]]:
     if data[:8] != _MAGIC:
         raise ModelFileError("not an excite model file: it does not start with EXCITEMF")
     if len(data) < 16:
         raise ModelFileError("not an excite model file: the header is cut short")
     version, count = struct.unpack_from("<II", data, 8)
+    if version == 0:
+        raise ModelFileError("not an excite model file: format version 0")
     if version > FORMAT_VERSION:
         raise ModelFileError(f"the model file has format version {version}; this reader "
                              f"knows versions up to {FORMAT_VERSION}: use a newer excite")
@@ -75,20 +78,22 @@ def _arrays(data: bytes) -> Dict[str, FloatArray]:
         raise ModelFileError(f"not an excite model file: cut short ({error})") from None
     if at != len(data):
         raise ModelFileError("not an excite model file: bytes follow the last array")
-    return arrays
+    return version, arrays
 
 
 class Model:
     """A dynamics model read from a model file; see the module's docstring."""
 
     def __init__(self, data: bytes):
-        arrays = _arrays(data)
+        version, arrays = _arrays(data)
 
         def take(name: str) -> FloatArray:
             if name not in arrays:
                 raise ModelFileError(f"not an excite model file: no array {name}")
             return arrays[name]
 
+        #: The file's format version (1, or 2 with a linear prior mean).
+        self.format_version = version
         dims = take("dims").ravel()
         self.state_dim = int(dims[0])
         self.input_dim = int(dims[1])
@@ -99,6 +104,9 @@ class Model:
         self._center = take("feature_center").ravel()
         self._half_width = take("feature_half_width").ravel()
         self._prior_mean = take("prior_mean").ravel()
+        # Version 1 files hold a constant prior mean only.
+        self._prior_slopes = (take("prior_slopes") if version >= 2 else
+                              np.zeros((self.state_dim, self._center.size)))
         self._output_std = take("output_std").ravel()
         self.noise_variance = take("noise_variance").ravel()
         self._outputs = [
@@ -143,13 +151,14 @@ class Model:
     def _predict(self, points: FloatArray, mean: FloatArray, variance: FloatArray,
                  include_noise: bool) -> None:
         normalised = (self._features(points) - self._center) / self._half_width
+        prior = self._prior_mean + normalised @ self._prior_slopes.T
         for j, o in enumerate(self._outputs):
             a = normalised / o.lengthscales
             p = o.points / o.lengthscales
             k = o.signal_variance * np.exp(
                 -0.5 * ((p[:, None, :] - a[None, :, :]) ** 2).sum(axis=2))  # (m, n)
             scale = self._output_std[j]
-            mean[:, j] = self._prior_mean[j] + scale * (k.T @ o.weights)
+            mean[:, j] = prior[:, j] + scale * (k.T @ o.weights)
             if self.delta:
                 mean[:, j] += points[:, j]
             v1 = _solve_lower(o.factor, k)
