@@ -87,7 +87,8 @@ PriorFit FitLinearPriorMean(const Eigen::MatrixXd& zn, const Eigen::MatrixXd& ta
 
 }  // namespace
 
-struct DynamicsModel::State {
+// Everything of a model but its fitted GPs: what a refit reads (State adds the GPs).
+struct UnfittedState {
   DynamicsModelOptions options;
   int state_dim = 0;
   int input_dim = 0;
@@ -115,12 +116,7 @@ struct DynamicsModel::State {
   // Output scale of the fit's normalised units (refreshed at every Refit()); the
   // model in data units does not depend on it.
   Eigen::VectorXd out_std;
-  // Per output: exact GPs, or (sparse) sparse GPs with the LML of the exact GP
-  // on the fit's subset.
   bool sparse = false;
-  std::vector<GpModel> gps;
-  std::vector<SparseGpModel> sparse_gps;
-  std::vector<double> sparse_fit_lml;
   std::vector<Hyperparameters> data_hyperparameters;
 
   int n() const { return static_cast<int>(z.rows()); }
@@ -155,6 +151,14 @@ struct DynamicsModel::State {
     for (int a : options.angle_dims) delta.col(a) = delta.col(a).unaryExpr(&WrapAngle);
     return delta;
   }
+};
+
+struct DynamicsModel::State : UnfittedState {
+  // Per output: exact GPs, or (sparse) sparse GPs with the LML of the exact GP
+  // on the fit's subset.
+  std::vector<GpModel> gps;
+  std::vector<SparseGpModel> sparse_gps;
+  std::vector<double> sparse_fit_lml;
 };
 
 absl::StatusOr<DynamicsModel> DynamicsModel::Create(DynamicsModelOptions options) {
@@ -235,6 +239,13 @@ DynamicsModel::DynamicsModel(std::unique_ptr<State> state) : state_(std::move(st
 DynamicsModel::DynamicsModel(DynamicsModel&&) noexcept = default;
 DynamicsModel& DynamicsModel::operator=(DynamicsModel&&) noexcept = default;
 DynamicsModel::~DynamicsModel() = default;
+
+DynamicsModel DynamicsModel::CopyData() const {
+  auto copy = std::make_unique<State>();
+  static_cast<UnfittedState&>(*copy) = *state_;
+  copy->fitted = false;
+  return DynamicsModel(std::move(copy));
+}
 
 int DynamicsModel::state_dim() const { return state_->state_dim; }
 int DynamicsModel::input_dim() const { return state_->input_dim; }

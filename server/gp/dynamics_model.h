@@ -149,6 +149,12 @@ class DynamicsModel final : public DynamicsPredictor {
   // hyperparameters or with fewer than 2 samples.
   absl::Status Rebuild();
 
+  // The model's data, options and hyperparameters without its fitted GPs
+  // (fitted() false): Refit() or Rebuild() of the copy gives exactly the model
+  // they would give here, so a caller can fit beside a model that still answers.
+  // O(n (state_dim + input_dim)).
+  DynamicsModel CopyData() const;
+
   int sample_count() const;
   // Samples added since the last Refit().
   int samples_since_fit() const;

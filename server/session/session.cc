@@ -80,6 +80,24 @@ absl::Status InternalFromException(absl::string_view what, const std::exception&
   return absl::InternalError(absl::StrCat(what, ": unexpected exception: ", e.what()));
 }
 
+// absl::Condition's test of Session::model_in_use_.
+bool NotInUse(bool* in_use) { return !*in_use; }
+
+// Where a plan starts: `state`, or the model mean's state after the `pending`
+// inputs (INTERNAL if that is not finite).
+absl::StatusOr<Eigen::VectorXd> StateAfter(const gp::DynamicsModel& model,
+                                           const Eigen::VectorXd& state,
+                                           const Eigen::MatrixXd& pending,
+                                           const std::string& name) {
+  if (pending.rows() == 0) return state;
+  const plan::Rollout ahead = plan::RollOut(model, state, pending);
+  if (!ahead.valid) {
+    return absl::InternalError(absl::StrCat(
+        "session ", name, ": the model's prediction along pending_inputs is not finite"));
+  }
+  return Eigen::VectorXd(ahead.means.row(ahead.means.rows() - 1).transpose());
+}
+
 }  // namespace
 
 Session::Session(std::string id, SessionSpec spec, Metadata metadata,
@@ -92,8 +110,8 @@ Session::Session(std::string id, SessionSpec spec, Metadata metadata,
       format_(format),
       store_(store),
       fence_(fence),
-      model_(std::move(model)),
       planner_(spec_.plan),
+      model_(std::move(model)),
       uncertainty_reference_(UncertaintyReference(spec_)) {}
 
 Session::~Session() {
@@ -479,25 +497,17 @@ absl::StatusOr<AddResult> Session::AddSamples(
         rows = Kept(rows, inserted->stored);  // duplicates are not added again
       }
       RecordBatchError(rows);
-      absl::Status added;
-      try {
-        added = model_->AddSamples(rows.states, rows.inputs, rows.next_states);
-      } catch (const std::exception& e) {
-        added = InternalFromException("adding samples to the GP", e);
-      }
-      // The samples are stored whatever happens here; count them so that the
+      // The samples are stored whatever happens below; count them so that the
       // session agrees with the store (and with itself after a restart).
       sample_count_ += n;
-      ++model_version_;
       SettleBudget();
-      if (!added.ok()) {
+      if (model_in_use_) {
+        // A plan reads the model now: they enter it when the plan ends.
+        deferred_.push_back(std::move(rows));
+      } else if (absl::Status added = AddToModel(rows); !added.ok()) {
         PublishSnapshot();
-        return absl::InternalError(absl::StrCat("session ", name_, ": ", n,
-                                                " samples were stored but the GP update "
-                                                "failed: ",
-                                                added.message()));
+        return added;
       }
-      RecordUncertaintyIfDue();
     }
     result.stored = inserted->stored_count;
     result.duplicates = inserted->duplicate_count;
@@ -509,8 +519,47 @@ absl::StatusOr<AddResult> Session::AddSamples(
   return result;
 }
 
+absl::Status Session::AddToModel(const TransitionRows& rows) {
+  absl::Status added;
+  try {
+    added = model_->AddSamples(rows.states, rows.inputs, rows.next_states);
+  } catch (const std::exception& e) {
+    added = InternalFromException("adding samples to the GP", e);
+  }
+  ++model_version_;
+  if (!added.ok()) {
+    return absl::InternalError(absl::StrCat("session ", name_, ": ", rows.states.rows(),
+                                            " samples were stored but the GP update "
+                                            "failed: ",
+                                            added.message()));
+  }
+  RecordUncertaintyIfDue();
+  return added;
+}
+
+void Session::ApplyDeferred() {
+  for (const TransitionRows& rows : deferred_) {
+    if (absl::Status s = AddToModel(rows); !s.ok()) {
+      Log(LogLevel::kWarning, absl::StrCat(s.message(),
+                                           " (after a plan; the next refit "
+                                           "rebuilds the GP from them)"));
+    }
+  }
+  if (!deferred_.empty()) PublishSnapshot();
+  deferred_.clear();
+}
+
+absl::Status Session::EnsureReadable(Clock::time_point deadline,
+                                     const std::function<bool()>& cancelled) {
+  if (model_in_use_ && model_->fitted()) return absl::OkStatus();
+  return EnsureFitted(deadline, cancelled);
+}
+
 absl::Status Session::EnsureFitted(Clock::time_point deadline,
                                    const std::function<bool()>& cancelled) {
+  // After any plan or fit under way (and its deferred samples): the model then
+  // holds every stored sample.
+  mu_.Await(absl::Condition(&NotInUse, &model_in_use_));
   const int64_t min_samples = spec_.refit.min_samples;
   if (sample_count_ < min_samples) {
     return absl::FailedPreconditionError(absl::StrCat(
@@ -521,33 +570,42 @@ absl::Status Session::EnsureFitted(Clock::time_point deadline,
       spec_.refit.refits() && gp::RefitDue(spec_.refit.schedule, model_->sample_count(),
                                            model_->samples_since_fit());
   if (model_->fitted() && !refit_due) return absl::OkStatus();
-  if (!refit_due && spec_.refit.refits() && !model_->hyperparameters().empty()) {
-    // Restored with a fit that is still current: predict as before the restart.
-    const absl::Status rebuilt = model_->Rebuild();
-    ReturnFreedMemory();  // the factorisation's n x n temporaries
-    if (!rebuilt.ok()) {
-      return absl::InternalError(absl::StrCat("rebuilding session ", name_, " with ",
-                                              sample_count_,
-                                              " samples failed: ", rebuilt.message()));
-    }
-    PublishSnapshot();
-    return absl::OkStatus();
-  }
-
+  // Restored with a fit that is still current: rebuilt to predict as before the
+  // restart. Otherwise refitted.
+  const bool rebuild =
+      !refit_due && spec_.refit.refits() && !model_->hyperparameters().empty();
   const gp::FitStopFn stop = [&]() {
     return Clock::now() >= deadline || (cancelled && cancelled());
   };
+  // The fit runs on a copy of the data without mu_: meanwhile reads answer from
+  // the model as it is and AddData defers, and a failed fit leaves it in place.
+  gp::DynamicsModel next = model_->CopyData();
+  model_in_use_ = true;
+  mu_.Unlock();
   absl::StatusOr<gp::FitSummary> summary;
   try {
-    summary = model_->Refit(stop);
+    if (rebuild) {
+      const absl::Status rebuilt = next.Rebuild();
+      summary = rebuilt.ok() ? absl::StatusOr<gp::FitSummary>(gp::FitSummary{}) : rebuilt;
+    } else {
+      summary = next.Refit(stop);
+    }
   } catch (const std::exception& e) {
-    summary = InternalFromException("refit", e);
+    summary = InternalFromException(rebuild ? "rebuild" : "refit", e);
   }
-  ReturnFreedMemory();  // the fit's n x n temporaries
+  ReturnFreedMemory();  // the factorisation's n x n temporaries
+  mu_.Lock();
+  model_in_use_ = false;
+  if (summary.ok()) *model_ = std::move(next);
+  ApplyDeferred();
   if (!summary.ok()) {
     return absl::InternalError(
-        absl::StrCat("refit of session ", name_, " with ", sample_count_,
-                     " samples failed: ", summary.status().message()));
+        absl::StrCat(rebuild ? "rebuilding" : "refit of", " session ", name_, " with ",
+                     sample_count_, " samples failed: ", summary.status().message()));
+  }
+  if (rebuild) {
+    PublishSnapshot();
+    return absl::OkStatus();
   }
   ++model_version_;
   PublishSnapshot();
@@ -594,7 +652,7 @@ absl::StatusOr<Prediction> Session::Predict(const Eigen::MatrixXd& z, bool inclu
   const CallScope call(this);
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
-  if (absl::Status s = EnsureFitted(std::min(refit_deadline, deadline), cancelled);
+  if (absl::Status s = EnsureReadable(std::min(refit_deadline, deadline), cancelled);
       !s.ok()) {
     return s;
   }
@@ -652,7 +710,7 @@ absl::StatusOr<RolloutResult> Session::Rollout(const Eigen::VectorXd& state,
   const CallScope call(this);
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
-  if (absl::Status s = EnsureFitted(refit_deadline, cancelled); !s.ok()) return s;
+  if (absl::Status s = EnsureReadable(refit_deadline, cancelled); !s.ok()) return s;
   RolloutResult result;
   try {
     result.trajectory = plan::PropagateLinearised(
@@ -674,7 +732,7 @@ absl::StatusOr<ModelExport> Session::ExportModel(Clock::time_point refit_deadlin
   const CallScope call(this);
   absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckUsable(); !s.ok()) return s;
-  if (absl::Status s = EnsureFitted(refit_deadline, cancelled); !s.ok()) return s;
+  if (absl::Status s = EnsureReadable(refit_deadline, cancelled); !s.ok()) return s;
   std::optional<model::ModelData> data = model_->ExportModel();
   if (!data.has_value()) {
     return absl::InternalError(
@@ -702,47 +760,57 @@ absl::StatusOr<PlanResult> Session::PlanInputs(const Eigen::VectorXd& state,
                                                Clock::time_point deadline,
                                                std::function<bool()> cancelled) {
   const CallScope call(this);
-  absl::MutexLock lock(&mu_);
-  if (absl::Status s = CheckUsable(); !s.ok()) return s;
+  absl::MutexLock plan_lock(&plan_mu_);
   // prbs, chirp and random never evaluate the model: no data needed, no refit.
   const bool model_free = plan::IsModelFree(planner_.options().strategy);
-  if (!model_free) {
-    if (absl::Status s = EnsureFitted(deadline, cancelled); !s.ok()) return s;
+  PlanResult result;
+  result.start_step = static_cast<int>(pending.rows());
+  int64_t start = 0;
+  plan::PlanStart plan_start;
+  const gp::DynamicsModel* model = nullptr;
+  {
+    absl::MutexLock lock(&mu_);
+    if (absl::Status s = CheckUsable(); !s.ok()) return s;
+    if (!model_free) {
+      if (absl::Status s = EnsureFitted(deadline, cancelled); !s.ok()) return s;
+    }
+    mu_.Await(absl::Condition(&NotInUse, &model_in_use_));  // a fit by a read
+    // (A cancel is the planner's to notice, outside the lock.)
+    if (Clock::now() >= deadline) {
+      return absl::DeadlineExceededError(absl::StrCat(
+          "PlanInputs on ", name_, ": the deadline passed before planning started"));
+    }
+    start = sample_count_ + result.start_step;
+    plan_start.measured = pending.rows() == 0;
+    if (pending.rows() > 0 || last_plan_pending_) {
+      plan_start.steps_since_previous = start - last_plan_start_;
+    }
+    result.model_version = model_version_;
+    model = &*model_;
+    model_in_use_ = true;
   }
-  if (cancelled && cancelled()) {
-    return absl::CancelledError("PlanInputs was cancelled by the client");
-  }
-  if (Clock::now() >= deadline) {
-    return absl::DeadlineExceededError(absl::StrCat(
-        "PlanInputs on ", name_, ": the deadline passed before planning started"));
-  }
+  // Outside mu_: reads and AddData go on meanwhile, and nothing changes *model.
   plan::PlanLimits limits;
   limits.deadline = deadline;
   limits.cancelled = std::move(cancelled);
-  PlanResult result;
-  result.start_step = static_cast<int>(pending.rows());
-  const int64_t start = sample_count_ + result.start_step;
-  plan::PlanStart plan_start;
-  plan_start.measured = pending.rows() == 0;
-  if (pending.rows() > 0 || last_plan_pending_) {
-    plan_start.steps_since_previous = start - last_plan_start_;
-  }
+  absl::Status start_error;
   absl::StatusOr<plan::Plan> plan;
   try {
-    Eigen::VectorXd x0 = state;
-    if (pending.rows() > 0 && !model_free) {
-      const plan::Rollout ahead = plan::RollOut(*model_, state, pending);
-      if (!ahead.valid) {
-        return absl::InternalError(
-            absl::StrCat("session ", name_,
-                         ": the model's prediction along pending_inputs is not finite"));
-      }
-      x0 = ahead.means.row(ahead.means.rows() - 1).transpose();
+    absl::StatusOr<Eigen::VectorXd> x0 = model_free
+                                             ? absl::StatusOr<Eigen::VectorXd>(state)
+                                             : StateAfter(*model, state, pending, name_);
+    if (x0.ok()) {
+      plan = planner_.PlanInputs(*model, *x0, start, limits, &result.summary, plan_start);
+    } else {
+      start_error = x0.status();
     }
-    plan = planner_.PlanInputs(*model_, x0, start, limits, &result.summary, plan_start);
   } catch (const std::exception& e) {
     plan = InternalFromException("planner", e);
   }
+  absl::MutexLock lock(&mu_);
+  model_in_use_ = false;
+  ApplyDeferred();
+  if (!start_error.ok()) return start_error;
   if (!plan.ok()) {
     const absl::StatusCode code = plan.status().code();
     if (code == absl::StatusCode::kCancelled ||
@@ -753,19 +821,20 @@ absl::StatusOr<PlanResult> Session::PlanInputs(const Eigen::VectorXd& state,
     return absl::InternalError(absl::StrCat("planning for session ", name_,
                                             " failed: ", plan.status().ToString()));
   }
+  // Deleted or moved while it planned: the plan is nobody's.
+  if (absl::Status s = CheckUsable(); !s.ok()) return s;
   if (absl::Status s = CheckPlanShape(*plan, model_free); !s.ok()) return s;
   result.plan = *std::move(plan);
   result.plan.apply_count =
       std::clamp(result.plan.apply_count, 1, static_cast<int>(result.plan.inputs.rows()));
-  result.model_version = model_version_;
   last_plan_ = result;
   last_plan_start_ = start;
   last_plan_pending_ = pending.rows() > 0;
   PublishSnapshot();
   {
     PlanRecord record;
-    record.sample_count = sample_count_;
-    record.model_version = model_version_;
+    record.sample_count = start - result.start_step;
+    record.model_version = result.model_version;
     record.unix_ms = absl::ToUnixMillis(absl::Now());
     record.planned_by = result.summary.planned_by;
     record.status = result.summary.status;

@@ -334,10 +334,23 @@ class Session {
   absl::Status CheckModelAccepts(const TransitionRows& rows)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // FAILED_PRECONDITION before min_samples, then the lazy refit, stopped early
-  // (DEADLINE_EXCEEDED / CANCELLED) by `deadline` or `cancelled`.
+  // (DEADLINE_EXCEEDED / CANCELLED) by `deadline` or `cancelled`. Waits for a
+  // plan or fit under way; releases mu_ while it fits.
   absl::Status EnsureFitted(Clock::time_point deadline,
                             const std::function<bool()>& cancelled)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // What a read (Predict, Rollout, ExportModel) needs: during a plan or fit, the
+  // model as it is if fitted (the read answers from that version, no refit);
+  // otherwise EnsureFitted.
+  absl::Status EnsureReadable(Clock::time_point deadline,
+                              const std::function<bool()>& cancelled)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Adds stored rows to the GP as the next model version; INTERNAL if the GP
+  // update failed (the samples stay stored, and the next refit rebuilds it).
+  absl::Status AddToModel(const TransitionRows& rows) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Adds deferred_ once a plan or fit has ended (a failure is logged: the samples
+  // were acknowledged to their caller already).
+  void ApplyDeferred() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // INTERNAL unless `plan` has the shape of this session's plans.
   absl::Status CheckPlanShape(const plan::Plan& plan, bool model_free) const;
   void PublishSnapshot() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
@@ -359,10 +372,19 @@ class Session {
   MetricsSink* metrics_ = nullptr;
   MemoryBudget* budget_ = nullptr;
 
+  // Held by PlanInputs for the whole plan: one plan of a session at a time (a
+  // second waits). The plan itself runs without mu_, on the model as it was when
+  // the plan started (model_in_use_), so that reads and AddData do not wait.
+  absl::Mutex plan_mu_ ABSL_ACQUIRED_BEFORE(mu_);
+  plan::Planner planner_ ABSL_GUARDED_BY(plan_mu_);
   absl::Mutex mu_;
-  // Empty only in a damaged session.
+  // Empty only in a damaged session. While model_in_use_, a plan reads it, or a
+  // fit works on a copy of its data, without mu_: nothing changes it then
+  // (AddSamples defers, reads use it as it is, another fit waits).
   std::optional<gp::DynamicsModel> model_ ABSL_GUARDED_BY(mu_);
-  plan::Planner planner_ ABSL_GUARDED_BY(mu_);
+  bool model_in_use_ ABSL_GUARDED_BY(mu_) = false;
+  // Stored and acknowledged during a plan or fit; added to the model after it.
+  std::vector<TransitionRows> deferred_ ABSL_GUARDED_BY(mu_);
   int64_t sample_count_ ABSL_GUARDED_BY(mu_) = 0;
   int64_t last_sequence_ ABSL_GUARDED_BY(mu_) = -1;
   int64_t model_version_ ABSL_GUARDED_BY(mu_) = 0;

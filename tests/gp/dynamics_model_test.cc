@@ -278,6 +278,39 @@ TEST(DynamicsModelTest, RebuildFromSavedFitPredictsAsTheOriginal) {
   }
 }
 
+// A copy of the data fits exactly the model a refit in place gives (the session
+// fits on one while the other answers), exact and sparse, and is not fitted
+// until then.
+TEST(DynamicsModelTest, RefitOfACopyOfTheDataIsTheRefitInPlace) {
+  for (int sparse_above : {0, 40}) {
+    SCOPED_TRACE(sparse_above);
+    DynamicsModelOptions o = BaseOptions(Target::kDelta);
+    o.sparse_above = sparse_above;
+    absl::StatusOr<DynamicsModel> model = DynamicsModel::Create(o);
+    ASSERT_TRUE(model.ok());
+    const Transitions d = MakeTransitions(60, 31);
+    ASSERT_TRUE(
+        model->AddSamples(d.x.topRows(45), d.u.topRows(45), d.next.topRows(45)).ok());
+    ASSERT_TRUE(model->Refit().ok());
+    ASSERT_TRUE(
+        model->AddSamples(d.x.bottomRows(15), d.u.bottomRows(15), d.next.bottomRows(15))
+            .ok());
+    DynamicsModel copy = model->CopyData();
+    EXPECT_FALSE(copy.fitted());
+    EXPECT_EQ(copy.sample_count(), 60);
+    EXPECT_EQ(copy.samples_since_fit(), 15);
+    ASSERT_TRUE(model->Refit().ok());
+    ASSERT_TRUE(copy.Refit().ok());
+    EXPECT_EQ(copy.sparse(), sparse_above > 0);
+    const Eigen::MatrixXd zt = Z(MakeTransitions(8, 32));
+    Eigen::MatrixXd m1, v1, m2, v2;
+    model->Predict(zt, &m1, &v1, nullptr, nullptr);
+    copy.Predict(zt, &m2, &v2, nullptr, nullptr);
+    EXPECT_EQ(m1, m2);
+    EXPECT_EQ(v1, v2);
+  }
+}
+
 // Sparse above sparse_above samples. With every sample an inducing point the
 // sparse model is the exact one: same predictions and Jacobians in data units,
 // also after samples appended past the Refit() move the prior mean.

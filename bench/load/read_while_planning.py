@@ -1,0 +1,107 @@
+#!/usr/bin/env python3
+"""Latency of reads and writes on a session while it plans, on a real excite-server.
+
+Starts the server binary on a temporary data directory (SQLite, the embedded
+default) and one pendulum session (rec, horizon 15, N samples, fitted first).
+One thread calls PlanInputs on it in a loop; beside it, for --seconds, another
+calls Predict (one point) on the same session, then GetSession, then AddData
+(one new transition each time). A second, idle session's Predict is the
+reference. Prints p50 / p99 / max of each in ms and the plans made.
+
+    bench/load/read_while_planning.py [--server build/release/server/excite-server]
+                                      [--samples 300] [--seconds 20]
+"""
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "client", "python"))
+import numpy as np  # noqa: E402
+from excite.client import Client  # noqa: E402
+
+
+def pendulum(n, rng, first=0):
+    x = rng.uniform([-3.1, -8], [3.1, 8], (n, 2))
+    u = rng.uniform(-2, 2, (n, 1))
+    dt = 0.05
+    omega = x[:, 1] + dt * (-9.81 * np.sin(x[:, 0]) + u[:, 0])
+    x_next = np.stack([x[:, 0] + dt * omega, omega], axis=1)
+    return x, u, x_next, np.arange(first, first + n)
+
+
+def quantiles(ms):
+    ms = np.asarray(ms)
+    return (f"p50 {np.percentile(ms, 50):7.1f}  p99 {np.percentile(ms, 99):7.1f}  "
+            f"max {ms.max():7.1f} ms  ({ms.size} calls)")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--server", default="build/release/server/excite-server")
+    parser.add_argument("--samples", type=int, default=300)
+    parser.add_argument("--seconds", type=float, default=20)
+    args = parser.parse_args()
+    data_dir = tempfile.mkdtemp(prefix="excite-read-bench-")
+    server = subprocess.Popen(
+        [args.server, "--listen=127.0.0.1:0", f"--data_dir={data_dir}",
+         "--log_level=warning"], stdout=subprocess.PIPE, text=True)
+    try:
+        port = server.stdout.readline().strip().rsplit(":", 1)[1]
+        client = Client(f"127.0.0.1:{port}", timeout_s=600)
+        config = {"state_dim": 2, "input_dim": 1, "input_bounds": [[-2, 2]],
+                  "state_bounds": [[-3.2, 3.2], [-8, 8]], "angle_dims": [0],
+                  "noise": {"variance": 1e-6}, "strategy": "STRATEGY_REC", "horizon": 15}
+        rng = np.random.default_rng(0)
+        planning = client.create_session(config)
+        idle = client.create_session(config)
+        x, u, x_next, seq = pendulum(args.samples, rng)
+        for session in (planning, idle):
+            session.add(x, u, x_next, sequences=seq)
+            session.predict(np.zeros((1, 3)))  # fitted before the measurement
+        stop = threading.Event()
+        plans = []
+
+        def plan_loop():
+            while not stop.is_set():
+                start = time.perf_counter()
+                planning.plan([0.1, -0.2])
+                plans.append(1e3 * (time.perf_counter() - start))
+
+        planner = threading.Thread(target=plan_loop)
+        planner.start()
+        time.sleep(0.5)  # the first plan is under way
+        latencies = {"Predict, planning session": [], "GetSession, planning session": [],
+                     "AddData, planning session": [], "Predict, idle session": []}
+        next_sequence = args.samples
+        end = time.perf_counter() + args.seconds
+        point = np.array([[0.3, 0.1, 0.5]])
+        while time.perf_counter() < end:
+            for name, call in (
+                    ("Predict, planning session", lambda: planning.predict(point)),
+                    ("GetSession, planning session", planning.refresh),
+                    ("AddData, planning session",
+                     lambda: planning.add(*pendulum(1, rng, next_sequence)[:3],
+                                          sequences=[next_sequence])),
+                    ("Predict, idle session", lambda: idle.predict(point))):
+                start = time.perf_counter()
+                call()
+                latencies[name].append(1e3 * (time.perf_counter() - start))
+            next_sequence += 1
+            time.sleep(0.01)
+        stop.set()
+        planner.join()
+        print(f"n = {args.samples}, rec horizon 15, {args.seconds:.0f} s")
+        for name, ms in latencies.items():
+            print(f"  {name:30s} {quantiles(ms)}")
+        print(f"  {'PlanInputs':30s} {quantiles(plans)}")
+    finally:
+        server.terminate()
+        server.wait()
+
+
+if __name__ == "__main__":
+    main()
