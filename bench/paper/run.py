@@ -837,6 +837,19 @@ OUTPUT_FILES = ["run.json", "results.csv", "trials.csv", "table.md", "summary.js
                 "server.log", "server.stdout", "rmse_all.png", "coverage.png"]
 
 
+def snapshot_configs(trials, out_dir):
+    """Copies each trial's system config into out_dir/configs and points the trial
+    at the copy: what the trials run is what the run started with, even if the
+    working tree's configs change while it runs (and the results keep them)."""
+    copies = {}
+    os.makedirs(os.path.join(out_dir, "configs"), exist_ok=True)
+    for t in trials:
+        if t.config not in copies:
+            copies[t.config] = os.path.join(out_dir, "configs", os.path.basename(t.config))
+            shutil.copyfile(t.config, copies[t.config])
+        t.config = copies[t.config]
+
+
 def prepare_out_dir(out_dir):
     """Creates the results directory. An earlier run's outputs in it (a directory
     with run.json) are removed first, so nothing stale is checked or plotted; any
@@ -851,7 +864,7 @@ def prepare_out_dir(out_dir):
             if name in OUTPUT_FILES or re.fullmatch(
                     r"rmse_\w+\.png|server-\d+\.(log|stdout)", name):
                 os.remove(path)
-            elif name == "trials" and os.path.isdir(path):
+            elif name in ("trials", "configs") and os.path.isdir(path):
                 shutil.rmtree(path)
     os.makedirs(out_dir, exist_ok=True)
 
@@ -936,6 +949,7 @@ def main(argv):
         log("run.py: nothing to run")
         return 1
     prepare_out_dir(out_dir)
+    snapshot_configs(trials, out_dir)
 
     meta = {
         "mode": mode, "started": datetime.datetime.now().isoformat(timespec="seconds"),

@@ -287,6 +287,31 @@ class CsvTest(unittest.TestCase):
             self.assertIn("columns", problems[0])
 
 
+class SnapshotConfigsTest(unittest.TestCase):
+    """run.py runs every trial on a copy of its config taken at the start."""
+
+    def test_trials_point_at_copies_that_later_edits_do_not_reach(self):
+        import run
+
+        class T:
+            def __init__(self, config):
+                self.config = config
+
+        with tempfile.TemporaryDirectory() as d:
+            original = os.path.join(d, "pendulum.textproto")
+            with open(original, "w") as f:
+                f.write("system: 'pendulum'\n")
+            trials = [T(original), T(original)]
+            out = os.path.join(d, "out")
+            run.snapshot_configs(trials, out)
+            copy = os.path.join(out, "configs", "pendulum.textproto")
+            self.assertEqual([t.config for t in trials], [copy, copy])
+            with open(original, "w") as f:
+                f.write("edited\n")
+            with open(copy) as f:
+                self.assertEqual(f.read(), "system: 'pendulum'\n")
+
+
 class EstimatorTest(unittest.TestCase):
     """run.py's time-left estimate (which finished or running trial it trusts)."""
 
