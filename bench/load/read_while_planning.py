@@ -3,10 +3,10 @@
 
 Starts the server binary on a temporary data directory (SQLite, the embedded
 default) and one pendulum session (rec, horizon 15, N samples, fitted first).
-One thread calls PlanInputs on it in a loop; beside it, for --seconds, another
-calls Predict (one point) on the same session, then GetSession, then AddData
-(one new transition each time). A second, idle session's Predict is the
-reference. Prints p50 / p99 / max of each in ms and the plans made.
+One thread calls PlanInputs on it in a loop, another adds one new transition every
+0.1 s (AddData, on a fixed schedule, so the data grow alike whatever the server);
+beside them, for --seconds, a third calls Predict (one point) on the same session,
+then GetSession, then Predict on a second, idle session (the reference). Prints p50 / p99 / max of each in ms and the plans made.
 
     bench/load/read_while_planning.py [--server build/release/server/excite-server]
                                       [--samples 300] [--seconds 20]
@@ -71,29 +71,37 @@ def main():
                 planning.plan([0.1, -0.2])
                 plans.append(1e3 * (time.perf_counter() - start))
 
-        planner = threading.Thread(target=plan_loop)
-        planner.start()
-        time.sleep(0.5)  # the first plan is under way
         latencies = {"Predict, planning session": [], "GetSession, planning session": [],
                      "AddData, planning session": [], "Predict, idle session": []}
-        next_sequence = args.samples
+
+        def add_loop():  # one new transition every 0.1 s, on a fixed schedule
+            sequence, due = args.samples, time.perf_counter()
+            while not stop.is_set():
+                due += 0.1
+                start = time.perf_counter()
+                planning.add(*pendulum(1, rng, sequence)[:3], sequences=[sequence])
+                latencies["AddData, planning session"].append(
+                    1e3 * (time.perf_counter() - start))
+                sequence += 1
+                time.sleep(max(0.0, due - time.perf_counter()))
+
+        threads = [threading.Thread(target=plan_loop), threading.Thread(target=add_loop)]
+        for t in threads:
+            t.start()
+        time.sleep(0.5)  # the first plan is under way
         end = time.perf_counter() + args.seconds
         point = np.array([[0.3, 0.1, 0.5]])
         while time.perf_counter() < end:
-            for name, call in (
-                    ("Predict, planning session", lambda: planning.predict(point)),
-                    ("GetSession, planning session", planning.refresh),
-                    ("AddData, planning session",
-                     lambda: planning.add(*pendulum(1, rng, next_sequence)[:3],
-                                          sequences=[next_sequence])),
-                    ("Predict, idle session", lambda: idle.predict(point))):
+            for name, call in (("Predict, planning session", lambda: planning.predict(point)),
+                               ("GetSession, planning session", planning.refresh),
+                               ("Predict, idle session", lambda: idle.predict(point))):
                 start = time.perf_counter()
                 call()
                 latencies[name].append(1e3 * (time.perf_counter() - start))
-            next_sequence += 1
             time.sleep(0.01)
         stop.set()
-        planner.join()
+        for t in threads:
+            t.join()
         print(f"n = {args.samples}, rec horizon 15, {args.seconds:.0f} s")
         for name, ms in latencies.items():
             print(f"  {name:30s} {quantiles(ms)}")
