@@ -19,6 +19,7 @@ using testing::RelErr;
 
 constexpr double kNoiseVar = 1e-3;
 
+using testing::DataUnitHyperparameters;
 using testing::PendulumTransitions;
 using testing::Transitions;
 using testing::Z;
@@ -36,17 +37,6 @@ DynamicsModelOptions BaseOptions(Target target) {
   o.input_center = Eigen::Vector3d(0.0, 0.0, 0.0);
   o.input_half_width = Eigen::Vector3d(3.0, 6.0, 2.0);
   return o;
-}
-
-std::vector<Hyperparameters> DataUnitHyperparameters() {
-  Hyperparameters a, b;
-  a.signal_variance = 0.5;
-  a.lengthscales = Eigen::Vector3d(2.0, 4.0, 3.0);
-  a.noise_variance = 2e-3;
-  b.signal_variance = 2.0;
-  b.lengthscales = Eigen::Vector3d(1.5, 6.0, 2.5);
-  b.noise_variance = 3e-3;
-  return {a, b};
 }
 
 // Fixed data-unit hyperparameters: the model equals a reference GP on raw z and

@@ -36,14 +36,7 @@ DynamicsModelOptions LinearOptions(Target target) {
   o.input_center = kCenter;
   o.input_half_width = kHalfWidth;
   o.fit_kernel = false;
-  Hyperparameters a, b;
-  a.signal_variance = 0.5;
-  a.lengthscales = Eigen::Vector3d(2.0, 4.0, 3.0);
-  a.noise_variance = 2e-3;
-  b.signal_variance = 2.0;
-  b.lengthscales = Eigen::Vector3d(1.5, 6.0, 2.5);
-  b.noise_variance = 3e-3;
-  o.fixed = {a, b};
+  o.fixed = testing::DataUnitHyperparameters();
   return o;
 }
 

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <vector>
+
+#include "server/gp/hyperparameters.h"
 
 namespace excite::gp::testing {
 
@@ -43,6 +46,19 @@ inline Eigen::MatrixXd Z(const Transitions& d) {
   Eigen::MatrixXd z(d.x.rows(), 3);
   z << d.x, d.u;
   return z;
+}
+
+// Fixed, well-conditioned hyperparameters of the two pendulum outputs in data
+// units (z = (theta, omega, u)).
+inline std::vector<Hyperparameters> DataUnitHyperparameters() {
+  Hyperparameters a, b;
+  a.signal_variance = 0.5;
+  a.lengthscales = Eigen::Vector3d(2.0, 4.0, 3.0);
+  a.noise_variance = 2e-3;
+  b.signal_variance = 2.0;
+  b.lengthscales = Eigen::Vector3d(1.5, 6.0, 2.5);
+  b.noise_variance = 3e-3;
+  return {a, b};
 }
 
 }  // namespace excite::gp::testing
