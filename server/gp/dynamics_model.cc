@@ -378,10 +378,7 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
         st = s.sparse_gps[j].AddSample(zn.row(i).transpose(),
                                        (t(i, j) - old_mean(i, j)) / s.out_std(j));
       }
-      if (!st.ok()) {
-        s.fitted = false;  // Refit() rebuilds from the stored data.
-        return st;
-      }
+      if (!st.ok()) return RecoverFromFailedUpdate(st);
       if (!s.linear_mean()) {
         s.sparse_gps[j].ShiftTargets((s.prior_mean(j) - old_prior_mean(j)) /
                                      s.out_std(j));
@@ -401,12 +398,19 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
     if (st.ok() && !s.linear_mean()) {
       st = s.gps[j].SetTargets(s.StandardisedTargets(j, s.out_std(j)));
     }
-    if (!st.ok()) {
-      s.fitted = false;  // Refit() rebuilds from the stored data.
-      return st;
-    }
+    if (!st.ok()) return RecoverFromFailedUpdate(st);
   }
   return absl::OkStatus();
+}
+
+absl::Status DynamicsModel::RecoverFromFailedUpdate(const absl::Status& failed) {
+  // An update can fail where a factorisation from scratch does not: a sample far
+  // outside the targets' spread at the last fit gets a huge standardised target,
+  // and a rebuild rescales the outputs from all the data (rounding differs between
+  // BLAS kernels, so which samples fail depends on the CPU).
+  if (Build(/*fit_hyperparameters=*/false, nullptr).ok()) return absl::OkStatus();
+  state_->fitted = false;  // Refit() rebuilds from the stored data.
+  return failed;
 }
 
 absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {

@@ -221,11 +221,16 @@ def test_the_page_shows_the_running_session_and_updates(exploring, browser):
     # flagged exactly where the server says the fit left them at a bound.
     wait_for("the fitted hyperparameters", lambda: len(
         browser.find_elements(By.CSS_SELECTOR, "#hyperparameters tbody tr")) == 2)
-    header = [th.text for th in browser.find_elements(By.CSS_SELECTOR, "#hyperparameters th")]
+    header = browser.execute_script(
+        "return [...document.querySelectorAll('#hyperparameters th')].map(t => t.innerText);")
     assert header[3:7] == ["lengthscale sin theta", "lengthscale cos theta",
                            "lengthscale theta_dot", "lengthscale tau"], header
-    rows = browser.find_elements(By.CSS_SELECTOR, "#hyperparameters tbody tr")
-    assert rows[0].text.startswith("theta [rad]") and rows[1].text.startswith("theta_dot")
+    # The rows' text in one read: the table is redrawn as the model changes, and an
+    # element found before a redraw is stale after it.
+    rows = browser.execute_script(
+        "return [...document.querySelectorAll('#hyperparameters tbody tr')]"
+        ".map(r => r.innerText);")
+    assert rows[0].startswith("theta [rad]") and rows[1].startswith("theta_dot"), rows
     # The model changes at every sample (the pendulum refits each time): the plant
     # pauses so that the page and the API show the same model version.
     sim.send_signal(signal.SIGSTOP)
