@@ -366,6 +366,16 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
     if (!st.ok()) s.fitted = false;  // Refit() rebuilds from the stored data.
     return st;
   }
+  // An update can fail where a factorisation from scratch does not: a sample far
+  // outside the targets' spread at the last fit gets a huge standardised target,
+  // and a rebuild rescales the outputs from all the data (rounding differs between
+  // BLAS kernels, so which samples fail depends on the CPU). If that fails too, the
+  // model is left unfitted and Refit() rebuilds it from the stored data.
+  const auto recover = [this, &s](const absl::Status& failed) {
+    if (Build(/*fit_hyperparameters=*/false, nullptr).ok()) return absl::OkStatus();
+    s.fitted = false;
+    return failed;
+  };
   const Eigen::MatrixXd zn = s.Normalise(z);
   // The new samples' targets on the prior mean as it was (a linear one stays).
   const Eigen::MatrixXd old_mean =
@@ -378,7 +388,7 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
         st = s.sparse_gps[j].AddSample(zn.row(i).transpose(),
                                        (t(i, j) - old_mean(i, j)) / s.out_std(j));
       }
-      if (!st.ok()) return RecoverFromFailedUpdate(st);
+      if (!st.ok()) return recover(st);
       if (!s.linear_mean()) {
         s.sparse_gps[j].ShiftTargets((s.prior_mean(j) - old_prior_mean(j)) /
                                      s.out_std(j));
@@ -398,19 +408,9 @@ absl::Status DynamicsModel::AddSamples(const Eigen::MatrixXd& states,
     if (st.ok() && !s.linear_mean()) {
       st = s.gps[j].SetTargets(s.StandardisedTargets(j, s.out_std(j)));
     }
-    if (!st.ok()) return RecoverFromFailedUpdate(st);
+    if (!st.ok()) return recover(st);
   }
   return absl::OkStatus();
-}
-
-absl::Status DynamicsModel::RecoverFromFailedUpdate(const absl::Status& failed) {
-  // An update can fail where a factorisation from scratch does not: a sample far
-  // outside the targets' spread at the last fit gets a huge standardised target,
-  // and a rebuild rescales the outputs from all the data (rounding differs between
-  // BLAS kernels, so which samples fail depends on the CPU).
-  if (Build(/*fit_hyperparameters=*/false, nullptr).ok()) return absl::OkStatus();
-  state_->fitted = false;  // Refit() rebuilds from the stored data.
-  return failed;
 }
 
 absl::StatusOr<FitSummary> DynamicsModel::Refit(const FitStopFn& stop) {

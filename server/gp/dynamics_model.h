@@ -233,9 +233,6 @@ class DynamicsModel final : public DynamicsPredictor {
   explicit DynamicsModel(std::unique_ptr<State> state);
   // Refit() (fit_hyperparameters) or Rebuild().
   absl::StatusOr<FitSummary> Build(bool fit_hyperparameters, const FitStopFn& stop);
-  // After AddSamples() failed to update the GPs: rebuilt from all the data with the
-  // current hyperparameters (OK), or left unfitted (`failed`).
-  absl::Status RecoverFromFailedUpdate(const absl::Status& failed);
   std::unique_ptr<State> state_;
 };
 
