@@ -20,6 +20,7 @@
 #include "common/logging.h"
 #include "common/usage.h"
 #include "server/blas/blas_lock.h"
+#include "server/plan/ipopt_lock.h"
 #include "server/service/auth.h"
 #include "server/service/excite_server.h"
 
@@ -73,6 +74,9 @@ ABSL_FLAG(int64_t, memory_budget_mb, 0,
           "Memory the sessions' models may take in all (estimated peak, MiB); requests "
           "beyond it get RESOURCE_EXHAUSTED. 0: three quarters of the cgroup's memory "
           "limit or, without one, of the machine's memory.");
+ABSL_FLAG(int, planner_workers, 0,
+          "Plans that may run at once over all sessions (0..1024); 0: the cores this "
+          "process may use (its CPU affinity and cgroup quota).");
 
 namespace {
 
@@ -130,6 +134,7 @@ int Run(int argc, char** argv) {
   options.web_listen = absl::GetFlag(FLAGS_web_listen);
   options.memory_budget_bytes =
       absl::GetFlag(FLAGS_memory_budget_mb) * (int64_t{1} << 20);
+  options.planner_workers = absl::GetFlag(FLAGS_planner_workers);
   options.security.tls_cert_file = absl::GetFlag(FLAGS_tls_cert);
   options.security.tls_key_file = absl::GetFlag(FLAGS_tls_key);
   options.security.tls_client_ca_file = absl::GetFlag(FLAGS_tls_client_ca);
@@ -158,6 +163,8 @@ int Run(int argc, char** argv) {
     return 1;
   }
 
+  Log(LogLevel::kInfo, absl::StrCat("plans up to ", excite::plan::ConcurrentSolves(),
+                                    " sessions at once (--planner_workers)"));
   if ((*server)->metrics_port() > 0) {
     Log(LogLevel::kInfo,
         absl::StrCat("metrics on port ", (*server)->metrics_port(), " (GET /metrics)"));

@@ -31,7 +31,8 @@ import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "client", "python"))
+sys.path.insert(0, os.path.dirname(__file__))
+from support import LocalServer  # noqa: E402
 import grpc  # noqa: E402
 import numpy as np  # noqa: E402
 import excite  # noqa: E402
@@ -40,13 +41,6 @@ from excite.client import Client  # noqa: E402
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 CONFIG = os.path.join(ROOT, "sim", "configs", "half_cheetah.textproto")
 DX, DU = 18, 6
-
-
-def start_server(binary, data_dir):
-    server = subprocess.Popen([binary, "--listen=127.0.0.1:0", f"--data_dir={data_dir}",
-                               "--log_level=warning"], stdout=subprocess.PIPE, text=True)
-    port = server.stdout.readline().strip().rsplit(":", 1)[1]
-    return server, f"127.0.0.1:{port}"
 
 
 def collect(args, address, path):
@@ -112,44 +106,39 @@ def main():
                         help="fail if a plan's objective falls short of the 10x longer "
                              "solve's by more than this fraction of it")
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory(prefix="excite-cheetah-plan-") as data_dir:
-        measure(args, data_dir)
+    with LocalServer(args.server) as server:
+        measure(args, server.address)
 
 
-def measure(args, data_dir):
-    server, address = start_server(args.server, data_dir)
-    try:
-        client = Client(address, timeout_s=3600, plan_timeout_s=3600)
-        with tempfile.TemporaryDirectory() as tmp:
-            xs, us, nexts = collect(args, address, os.path.join(tmp, "trajectory.csv"))
-        print(f"half-cheetah, n = {args.n}, {args.steps} steps, PRBS data (seed "
-              f"{args.seed})", flush=True)
-        results = {}
-        for policy, long_solve in (("paper", False), ("default", False), ("default", True)):
-            ms, objective, iterations = run(client, policy, long_solve, xs, us, nexts,
-                                            args.n, args.steps)
-            results[(policy, long_solve)] = objective
-            name = f"{policy} refit{', 10x longer solve' if long_solve else ''}"
-            # Ipopt iterations summed over the plan's starts: a plan whose starts all
-            # run to planner.max_iterations is slow for that reason.
-            print(f"{name}: PlanInputs p50 {np.median(ms):.0f} ms, slowest "
-                  f"{ms.max():.0f} ms, objective mean {objective.mean():.3f} nats, "
-                  f"Ipopt iterations p50 {np.median(iterations):.0f}", flush=True)
-        # The objective is maximised and may be negative (small variances): the
-        # shortfall is what the normal solve leaves below the longer one, relative
-        # to the longer one's size (negative: the normal solve found more).
-        normal, longer = results[("default", False)], results[("default", True)]
-        shortfall = (longer - normal) / np.abs(longer)
-        print(f"shortfall against the 10x longer solve: median {np.median(shortfall):.4f}, "
-              f"worst {shortfall.max():.4f}, best {shortfall.min():.4f}; in nats: "
-              f"median {np.median(longer - normal):.3f}, worst "
-              f"{(longer - normal).max():.3f}", flush=True)
-        if not np.all(np.isfinite(shortfall)) or shortfall.max() > args.max_shortfall:
-            sys.exit(f"a plan's objective is more than {args.max_shortfall} below the "
-                     "longer solve's")
-    finally:
-        server.terminate()
-        server.wait()
+def measure(args, address):
+    client = Client(address, timeout_s=3600, plan_timeout_s=3600)
+    with tempfile.TemporaryDirectory() as tmp:
+        xs, us, nexts = collect(args, address, os.path.join(tmp, "trajectory.csv"))
+    print(f"half-cheetah, n = {args.n}, {args.steps} steps, PRBS data (seed "
+          f"{args.seed})", flush=True)
+    results = {}
+    for policy, long_solve in (("paper", False), ("default", False), ("default", True)):
+        ms, objective, iterations = run(client, policy, long_solve, xs, us, nexts,
+                                        args.n, args.steps)
+        results[(policy, long_solve)] = objective
+        name = f"{policy} refit{', 10x longer solve' if long_solve else ''}"
+        # Ipopt iterations summed over the plan's starts: a plan whose starts all
+        # run to planner.max_iterations is slow for that reason.
+        print(f"{name}: PlanInputs p50 {np.median(ms):.0f} ms, slowest "
+              f"{ms.max():.0f} ms, objective mean {objective.mean():.3f} nats, "
+              f"Ipopt iterations p50 {np.median(iterations):.0f}", flush=True)
+    # The objective is maximised and may be negative (small variances): the
+    # shortfall is what the normal solve leaves below the longer one, relative
+    # to the longer one's size (negative: the normal solve found more).
+    normal, longer = results[("default", False)], results[("default", True)]
+    shortfall = (longer - normal) / np.abs(longer)
+    print(f"shortfall against the 10x longer solve: median {np.median(shortfall):.4f}, "
+          f"worst {shortfall.max():.4f}, best {shortfall.min():.4f}; in nats: "
+          f"median {np.median(longer - normal):.3f}, worst "
+          f"{(longer - normal).max():.3f}", flush=True)
+    if not np.all(np.isfinite(shortfall)) or shortfall.max() > args.max_shortfall:
+        sys.exit(f"a plan's objective is more than {args.max_shortfall} below the "
+                 "longer solve's")
 
 
 if __name__ == "__main__":

@@ -15,13 +15,13 @@ points and the server's peak resident memory.
 """
 import argparse
 import os
-import subprocess
 import sys
-import tempfile
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "client", "python"))
-import numpy as np  # noqa: E402
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from support import LocalServer  # noqa: E402
 from excite.client import Client  # noqa: E402
 
 DT, SUBSTEPS = 0.1, 10  # sim/configs/pendulum.textproto's plant
@@ -55,13 +55,8 @@ def trajectory(rng, x, n):
 
 
 def run(args, n, sparse_above):
-    data_dir = tempfile.mkdtemp(prefix="excite-long-session-")
-    server = subprocess.Popen(
-        [args.server, "--listen=127.0.0.1:0", f"--data_dir={data_dir}",
-         "--log_level=warning"], stdout=subprocess.PIPE, text=True)
-    try:
-        port = server.stdout.readline().strip().rsplit(":", 1)[1]
-        client = Client(f"127.0.0.1:{port}", timeout_s=3600)
+    with LocalServer(args.server) as server:
+        client = Client(server.address, timeout_s=3600)
         session = client.create_session({
             "state_dim": 2, "input_dim": 1, "input_bounds": [[-3, 3]],
             "state_bounds": [[-np.pi, np.pi], [-8, 8]],
@@ -88,16 +83,12 @@ def run(args, n, sparse_above):
             steps.append(time.perf_counter() - t0)
             x = nxt
         inducing = [o.inducing_points for o in session.refresh().info.outputs]
-        with open(f"/proc/{server.pid}/status") as f:
-            peak = next(int(line.split()[1]) for line in f if line.startswith("VmHWM"))
+        peak = server.status_mib("VmHWM")
         ms = 1000 * np.array(steps)
         print(f"n={n} sparse_above={sparse_above} max_inducing={args.max_inducing}: step p50 {np.median(ms):.1f} ms, "
               f"slowest {ms.max():.1f} ms ({args.steps} steps), first fit "
               f"{first_fit_s:.1f} s, inducing {inducing}, server peak RSS "
-              f"{peak / 1024:.0f} MiB", flush=True)
-    finally:
-        server.terminate()
-        server.wait()
+              f"{peak:.0f} MiB", flush=True)
 
 
 def main():

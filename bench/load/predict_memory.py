@@ -11,14 +11,13 @@ resident memory (VmHWM) before and after, and the call's wall time.
 """
 import argparse
 import os
-import re
-import subprocess
 import sys
-import tempfile
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "client", "python"))
-import numpy as np  # noqa: E402
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from support import LocalServer  # noqa: E402
 from excite.client import Client  # noqa: E402
 
 
@@ -28,19 +27,9 @@ def main():
     parser.add_argument("--samples", type=int, default=1000)
     parser.add_argument("--points", type=int, default=100000)
     args = parser.parse_args()
-    data_dir = tempfile.mkdtemp(prefix="excite-predict-bench-")
-    server = subprocess.Popen(
-        [args.server, "--listen=127.0.0.1:0", f"--data_dir={data_dir}",
-         "--log_level=warning", f"--max_predict_points={max(args.points, 100000)}"],
-        stdout=subprocess.PIPE, text=True)
-    try:
-        port = server.stdout.readline().strip().rsplit(":", 1)[1]
-
-        def peak_mib():
-            with open(f"/proc/{server.pid}/status") as f:
-                return int(re.search(r"VmHWM:\s+(\d+)", f.read()).group(1)) / 1024
-
-        client = Client(f"127.0.0.1:{port}", timeout_s=3600)
+    with LocalServer(args.server,
+                     f"--max_predict_points={max(args.points, 100000)}") as server:
+        client = Client(server.address, timeout_s=3600)
         fixed = {"signal_variance": 1, "lengthscales": [1, 1, 1], "noise_variance": 1e-4}
         session = client.create_session({
             "state_dim": 2, "input_dim": 1, "input_bounds": [[-3, 3]],
@@ -50,16 +39,13 @@ def main():
         u = rng.uniform(-3, 3, (args.samples, 1))
         session.add(x, u, x + 0.05 * np.hstack([x[:, 1:], np.sin(x[:, :1]) + u]))
         session.predict(np.zeros((1, 3)))  # factorises the model
-        before = peak_mib()
+        before = server.status_mib("VmHWM")
         start = time.time()
         session.predict(rng.uniform(-3, 3, (args.points, 3)))
         seconds = time.time() - start
-        after = peak_mib()
+        after = server.status_mib("VmHWM")
         print(f"n={args.samples} points={args.points}: {seconds:.1f} s, server peak RSS "
               f"{before:.0f} -> {after:.0f} MiB (+{after - before:.0f})")
-    finally:
-        server.terminate()
-        server.wait()
 
 
 if __name__ == "__main__":

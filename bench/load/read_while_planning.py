@@ -13,24 +13,15 @@ then GetSession, then Predict on a second, idle session (the reference). Prints 
 """
 import argparse
 import os
-import subprocess
 import sys
-import tempfile
 import threading
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "client", "python"))
-import numpy as np  # noqa: E402
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from support import LocalServer, pendulum_transitions as pendulum  # noqa: E402
 from excite.client import Client  # noqa: E402
-
-
-def pendulum(n, rng, first=0):
-    x = rng.uniform([-3.1, -8], [3.1, 8], (n, 2))
-    u = rng.uniform(-2, 2, (n, 1))
-    dt = 0.05
-    omega = x[:, 1] + dt * (-9.81 * np.sin(x[:, 0]) + u[:, 0])
-    x_next = np.stack([x[:, 0] + dt * omega, omega], axis=1)
-    return x, u, x_next, np.arange(first, first + n)
 
 
 def quantiles(ms):
@@ -45,13 +36,8 @@ def main():
     parser.add_argument("--samples", type=int, default=300)
     parser.add_argument("--seconds", type=float, default=20)
     args = parser.parse_args()
-    data_dir = tempfile.mkdtemp(prefix="excite-read-bench-")
-    server = subprocess.Popen(
-        [args.server, "--listen=127.0.0.1:0", f"--data_dir={data_dir}",
-         "--log_level=warning"], stdout=subprocess.PIPE, text=True)
-    try:
-        port = server.stdout.readline().strip().rsplit(":", 1)[1]
-        client = Client(f"127.0.0.1:{port}", timeout_s=600)
+    with LocalServer(args.server) as server:
+        client = Client(server.address, timeout_s=600)
         config = {"state_dim": 2, "input_dim": 1, "input_bounds": [[-2, 2]],
                   "state_bounds": [[-3.2, 3.2], [-8, 8]], "angle_dims": [0],
                   "noise": {"variance": 1e-6}, "strategy": "STRATEGY_REC", "horizon": 15}
@@ -106,9 +92,6 @@ def main():
         for name, ms in latencies.items():
             print(f"  {name:30s} {quantiles(ms)}")
         print(f"  {'PlanInputs':30s} {quantiles(plans)}")
-    finally:
-        server.terminate()
-        server.wait()
 
 
 if __name__ == "__main__":

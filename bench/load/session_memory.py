@@ -16,14 +16,14 @@ The sessions are exact GPs unless --sparse_above is set (sparse.above_samples).
 import argparse
 import os
 import re
-import subprocess
 import sys
-import tempfile
 import time
 import urllib.request
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "client", "python"))
-import numpy as np  # noqa: E402
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from support import LocalServer  # noqa: E402
 from excite.client import Client  # noqa: E402
 
 
@@ -42,18 +42,7 @@ def main():
 
 
 def start(args):
-    data_dir = tempfile.mkdtemp(prefix="excite-memory-bench-")
-    server = subprocess.Popen(
-        [args.server, "--listen=127.0.0.1:0", f"--data_dir={data_dir}",
-         "--log_level=warning", f"--metrics_listen=127.0.0.1:{args.metrics_port}"],
-        stdout=subprocess.PIPE, text=True)
-    port = server.stdout.readline().strip().rsplit(":", 1)[1]
-    return server, Client(f"127.0.0.1:{port}", timeout_s=3600)
-
-
-def status_mib(pid, field):
-    with open(f"/proc/{pid}/status") as f:
-        return int(re.search(field + r":\s+(\d+)", f.read()).group(1)) / 1024
+    return LocalServer(args.server, f"--metrics_listen=127.0.0.1:{args.metrics_port}")
 
 
 def estimate_mib(args):
@@ -64,10 +53,10 @@ def estimate_mib(args):
 
 
 def run_case(args, state_dim, input_dim, samples):
-    server, client = start(args)
-    try:
+    with start(args) as server:
+        client = Client(server.address, timeout_s=3600)
         rng = np.random.default_rng(0)
-        base_peak = status_mib(server.pid, "VmHWM")
+        base_peak = server.status_mib("VmHWM")
         base_estimate = estimate_mib(args)
         session = client.create_session({
             "state_dim": state_dim, "input_dim": input_dim,
@@ -84,32 +73,26 @@ def run_case(args, state_dim, input_dim, samples):
             session.add(x, u, x + 0.05 * drift)
             if first == 0 or first + m == samples:
                 session.predict(np.zeros((1, state_dim + input_dim)))  # a refit
-        peak = status_mib(server.pid, "VmHWM") - base_peak
+        peak = server.status_mib("VmHWM") - base_peak
         estimate = estimate_mib(args) - base_estimate
         print(f"state_dim {state_dim}, input_dim {input_dim}, n={samples}: peak RSS "
               f"+{peak:.0f} MiB, estimate {estimate:.0f} MiB "
               f"(estimate / peak {estimate / peak:.2f}), {time.time() - start_time:.0f} s",
               flush=True)
-    finally:
-        server.terminate()
-        server.wait()
 
 
 def empty_sessions(args, count=1000):
-    server, client = start(args)
-    try:
+    with start(args) as server:
+        client = Client(server.address, timeout_s=3600)
         config = {"state_dim": 2, "input_dim": 1, "input_bounds": [[-3, 3]],
                   "noise": {"variance": 1e-4}, "kernel": {"fit": True}}
         client.create_session(config)  # first-use allocations out of the figure
-        before = status_mib(server.pid, "VmRSS")
+        before = server.status_mib("VmRSS")
         for _ in range(count):
             client.create_session(config)
-        after = status_mib(server.pid, "VmRSS")
+        after = server.status_mib("VmRSS")
         print(f"{count} empty sessions: +{after - before:.1f} MiB resident, "
               f"{(after - before) * 1024 / count:.1f} KiB each", flush=True)
-    finally:
-        server.terminate()
-        server.wait()
 
 
 if __name__ == "__main__":

@@ -16,10 +16,22 @@ lapack_int Stride(const Eigen::Ref<const Eigen::MatrixXd>& m) {
   return static_cast<lapack_int>(std::max<Eigen::Index>(1, m.outerStride()));
 }
 
+// Up to this many right-hand sides, Eigen's solve (thread-safe, no lock): see the
+// header.
+constexpr Eigen::Index kEigenSolveColumns = 64;
+
 void Solve(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Ref<Eigen::MatrixXd> b,
            char transpose) {
   assert(l.rows() == l.cols() && b.rows() == l.rows());
   if (b.rows() == 0 || b.cols() == 0) return;
+  if (b.cols() <= kEigenSolveColumns) {
+    if (transpose == 'N') {
+      l.triangularView<Eigen::Lower>().solveInPlace(b);
+    } else {
+      l.triangularView<Eigen::Lower>().transpose().solveInPlace(b);
+    }
+    return;
+  }
   const lapack_int n = static_cast<lapack_int>(b.rows());
   const lapack_int nrhs = static_cast<lapack_int>(b.cols());
   const lapack_int lda = Stride(l);

@@ -1,23 +1,87 @@
 #include "server/plan/ipopt_lock.h"
 
+#include <algorithm>
 #include <atomic>
 
+#include "absl/base/thread_annotations.h"
+#include "absl/synchronization/mutex.h"
 #include "server/blas/blas_lock.h"
 
 namespace excite::plan {
 namespace {
 
+using Clock = std::chrono::steady_clock;
+
 std::atomic<int64_t> acquisitions{0};
 std::atomic<int64_t> wait_ns{0};
 std::atomic<int64_t> held_ns{0};
 
-// Whether a TimedIpoptLock of this thread holds blas::BlasMutex() now.
+// What this thread's TimedIpoptLock holds now, and since when IpoptMutex().
+thread_local bool holds_ipopt = false;
 thread_local bool holds_blas = false;
+thread_local Clock::time_point taken;
 
-int64_t NanosecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::steady_clock::now() - start)
+int64_t NanosecondsSince(Clock::time_point start) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start)
       .count();
+}
+
+// A counting semaphore over the solve slots (C++17 has none).
+class SolveSlots {
+ public:
+  void SetLimit(int limit) {
+    absl::MutexLock lock(&mu_);
+    limit_ = std::max(1, limit);
+  }
+  int limit() {
+    absl::MutexLock lock(&mu_);
+    return limit_;
+  }
+  void Acquire() {
+    mu_.LockWhen(absl::Condition(this, &SolveSlots::Free));
+    ++in_use_;
+    mu_.Unlock();
+  }
+  void Release() {
+    absl::MutexLock lock(&mu_);
+    --in_use_;
+  }
+
+ private:
+  bool Free() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) { return in_use_ < limit_; }
+
+  absl::Mutex mu_;
+  int limit_ ABSL_GUARDED_BY(mu_) = 1;
+  int in_use_ ABSL_GUARDED_BY(mu_) = 0;
+};
+
+SolveSlots& Slots() {
+  static SolveSlots* const slots = new SolveSlots;
+  return *slots;
+}
+
+// Takes IpoptMutex(), then the BLAS lock if the BLAS needs it (always in this
+// order, so two solves cannot deadlock), counting the wait.
+void TakeIpopt() {
+  const auto asked = Clock::now();
+  IpoptMutex().lock();
+  if (blas::BlasNeedsSerialising()) {
+    blas::BlasMutex().lock();
+    holds_blas = true;
+  }
+  holds_ipopt = true;
+  taken = Clock::now();
+  wait_ns.fetch_add(NanosecondsSince(asked), std::memory_order_relaxed);
+}
+
+void GiveIpoptBack() {
+  if (holds_blas) {
+    holds_blas = false;
+    blas::BlasMutex().unlock();
+  }
+  holds_ipopt = false;
+  held_ns.fetch_add(NanosecondsSince(taken), std::memory_order_relaxed);
+  IpoptMutex().unlock();
 }
 
 }  // namespace
@@ -27,38 +91,31 @@ std::mutex& IpoptMutex() {
   return *mutex;
 }
 
+void SetConcurrentSolves(int solves) { Slots().SetLimit(solves); }
+
+int ConcurrentSolves() { return Slots().limit(); }
+
 TimedIpoptLock::TimedIpoptLock() {
-  const auto asked = std::chrono::steady_clock::now();
-  IpoptMutex().lock();
-  taken_ = std::chrono::steady_clock::now();
+  const auto asked = Clock::now();
+  Slots().Acquire();
   wait_ns.fetch_add(NanosecondsSince(asked), std::memory_order_relaxed);
   acquisitions.fetch_add(1, std::memory_order_relaxed);
-  if (blas::BlasNeedsSerialising()) {
-    blas::BlasMutex().lock();
-    holds_blas = true;
-  }
+  TakeIpopt();
 }
 
 TimedIpoptLock::~TimedIpoptLock() {
-  if (holds_blas) {
-    holds_blas = false;
-    blas::BlasMutex().unlock();
-  }
-  held_ns.fetch_add(NanosecondsSince(taken_), std::memory_order_relaxed);
-  IpoptMutex().unlock();
+  if (holds_ipopt) GiveIpoptBack();
+  Slots().Release();
 }
 
 IpoptCallbackUnlock::IpoptCallbackUnlock() {
-  if (!holds_blas) return;
+  if (!holds_ipopt) return;
   released_ = true;
-  holds_blas = false;
-  blas::BlasMutex().unlock();
+  GiveIpoptBack();
 }
 
 IpoptCallbackUnlock::~IpoptCallbackUnlock() {
-  if (!released_) return;
-  blas::BlasMutex().lock();
-  holds_blas = true;
+  if (released_) TakeIpopt();
 }
 
 IpoptLockTotals ReadIpoptLockTotals() {

@@ -7,33 +7,43 @@
 
 namespace excite::plan {
 
-// The one process-wide lock around Ipopt: MUMPS in Ipopt 3.11 is not
-// thread-safe. SolveTnlp() holds it (through TimedIpoptLock) across an
-// IpoptApplication's create, Initialize, OptimizeTNLP and destroy, so one solve
-// runs at a time. Code that drives Ipopt itself must take it too.
+// How Ipopt solves share the process. MUMPS, the only linear solver of Debian's
+// Ipopt 3.11, is not thread-safe (coin-or/Ipopt#733), so Ipopt's own work
+// (create, Initialize, the iterations' linear algebra, destroy) runs under one
+// process-wide mutex, IpoptMutex(). A solve gives it up while its NLP calls back
+// into the model (IpoptCallbackUnlock), which is most of a plan's time: up to
+// ConcurrentSolves() solves then run their model work in parallel, and take
+// turns only for Ipopt's own steps. This is what Ipopt 3.14 does inside (MUMPS
+// under a mutex per call), done one level up: MUMPS instances take turns between
+// calls, never inside one.
+
+// The mutex around Ipopt's own work. Code that drives Ipopt itself must hold it.
 std::mutex& IpoptMutex();
 
-// Holds IpoptMutex() for its lifetime and adds the wait for it and the hold to
-// the process's IpoptLockTotals. When the BLAS is not thread-safe
-// (blas::BlasNeedsSerialising()) it holds blas::BlasMutex() too, since MUMPS
-// calls the BLAS, except during the NLP's callbacks (IpoptCallbackUnlock): a
-// Predict or a refit of another session then waits for one Ipopt iteration's
-// linear algebra at most, not for a whole solve.
+// The solves that may be under way at once (each holding a solve slot); at
+// least 1. Set once at start (excite-server's --planner_workers); 1 until then.
+// More solves than cores would only interleave their model work on the same
+// cores and wait longer for IpoptMutex() (16 against 24 plans/s with 32 solves
+// on 2 cores, docs/measurements.md), so a solve first waits for a slot.
+void SetConcurrentSolves(int solves);
+int ConcurrentSolves();
+
+// One solve's hold on Ipopt, for its lifetime: a solve slot, then IpoptMutex(),
+// and blas::BlasMutex() too when the BLAS is not thread-safe
+// (blas::BlasNeedsSerialising()), since MUMPS calls the BLAS. Adds the waits and
+// the holds to the process's IpoptLockTotals.
 class TimedIpoptLock {
  public:
   TimedIpoptLock();
   ~TimedIpoptLock();
   TimedIpoptLock(const TimedIpoptLock&) = delete;
   TimedIpoptLock& operator=(const TimedIpoptLock&) = delete;
-
- private:
-  std::chrono::steady_clock::time_point taken_;
 };
 
-// In an Ipopt callback: releases the BLAS lock a TimedIpoptLock of this thread
-// holds, for its lifetime (the model's own BLAS calls take it call by call). A
-// no-op when there is none (a thread-safe BLAS, or a callback called directly,
-// as tests do). IpoptMutex() stays held.
+// In an Ipopt callback: releases IpoptMutex() and the BLAS lock that this thread's
+// TimedIpoptLock holds, for its lifetime (the model's own BLAS calls take the
+// BLAS lock call by call), and takes them back at its end; the solve slot stays.
+// A no-op when this thread holds none (a callback called directly, as tests do).
 class IpoptCallbackUnlock {
  public:
   IpoptCallbackUnlock();
@@ -45,10 +55,11 @@ class IpoptCallbackUnlock {
   bool released_ = false;
 };
 
-// What TimedIpoptLocks spent on IpoptMutex() since the process started: how often
-// they took it, how long they waited for it and how long they held it. The held
-// time per second of wall time is the share of one core that planning is
-// serialised on.
+// What TimedIpoptLocks spent since the process started: how many solves took
+// them, how long solves waited (for a slot, and for IpoptMutex() at the start and
+// after each callback) and how long IpoptMutex() was held, callbacks excluded.
+// The held time per second of wall time is the share of one core that Ipopt's
+// own work is serialised on.
 struct IpoptLockTotals {
   int64_t acquisitions = 0;
   double wait_seconds = 0;

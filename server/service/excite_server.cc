@@ -15,11 +15,19 @@
 #include "grpcpp/health_check_service_interface.h"
 #include "grpcpp/security/server_credentials.h"
 #include "grpcpp/server_builder.h"
+#include "server/plan/ipopt_lock.h"
 #include "server/service/malformed_request_interceptor.h"
+#include "server/session/machine_limits.h"
 #include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
 
 namespace excite::service {
+namespace {
+
+// More would only queue more solves on the cores (plan::SetConcurrentSolves).
+constexpr int kMaxPlannerWorkers = 1024;
+
+}  // namespace
 
 absl::Status SplitHostPort(const std::string& address, std::string* host, int* port) {
   const size_t colon = address.rfind(':');
@@ -95,6 +103,13 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
         absl::StrCat("memory budget must be >= 0 (0: the default), got ",
                      options.memory_budget_bytes));
   }
+  if (options.planner_workers < 0 || options.planner_workers > kMaxPlannerWorkers) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "planner_workers must be in [0, ", kMaxPlannerWorkers,
+        "] (0: the cores this process may use), got ", options.planner_workers));
+  }
+  plan::SetConcurrentSolves(options.planner_workers > 0 ? options.planner_workers
+                                                        : session::AvailableCores());
   server->budget_ = std::make_unique<MemoryBudget>(
       options.memory_budget_bytes > 0 ? options.memory_budget_bytes
                                       : session::DefaultMemoryBudgetBytes());
@@ -164,6 +179,9 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
     server->metrics_->AddGauge(
         "excite_memory_budget_bytes", "The memory budget.",
         [budget]() { return static_cast<double>(budget->limit()); });
+    server->metrics_->AddGauge(
+        "excite_planner_workers", "Plans that may run at once (--planner_workers).",
+        []() { return static_cast<double>(plan::ConcurrentSolves()); });
     absl::StatusOr<std::unique_ptr<MetricsEndpoint>> endpoint =
         MetricsEndpoint::Start(options.metrics_listen, server->metrics_.get());
     if (!endpoint.ok()) return endpoint.status();

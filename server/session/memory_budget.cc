@@ -4,29 +4,12 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <fstream>
 
-#include "absl/strings/ascii.h"
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "server/session/machine_limits.h"
 
 namespace excite::session {
-namespace {
-
-// The number in a one-line file (a cgroup limit); 0 if absent, "max" or absurd.
-int64_t ReadLimitFile(const char* path) {
-  std::ifstream in(path);
-  std::string text;
-  if (!std::getline(in, text)) return 0;
-  int64_t value = 0;
-  if (!absl::SimpleAtoi(absl::StripAsciiWhitespace(text), &value) || value <= 0) return 0;
-  // cgroup v1 reports "no limit" as a huge page-rounded number.
-  if (value >= (int64_t{1} << 60)) return 0;
-  return value;
-}
-
-}  // namespace
 
 absl::Status MemoryBudget::Reserve(int64_t bytes, absl::string_view what) {
   int64_t used = used_.load();

@@ -526,7 +526,8 @@ TEST(EndToEndNoServerTest, SimRejectsUnknownStrategy) {
 TEST(EndToEndNoServerTest, HelpListsEachProgramsFlagsAndExitsZero) {
   TempDir work("excite-e2e-help");
   const std::vector<std::pair<std::string, std::vector<std::string>>> programs = {
-      {EXCITE_SERVER_PATH, {"--listen", "--data_dir", "--memory_budget_mb"}},
+      {EXCITE_SERVER_PATH,
+       {"--listen", "--data_dir", "--memory_budget_mb", "--planner_workers"}},
       {EXCITE_SIM_PATH, {"--config", "--strategy", "--server", "--tls_ca"}},
       {EXCITE_CLI_PATH, {"--server", "--config", "--timeout_s", "sessions list"}}};
   for (const auto& [path, expected] : programs) {

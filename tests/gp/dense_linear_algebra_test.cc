@@ -51,20 +51,23 @@ TEST_P(DenseLinearAlgebraTest, InverseFromCholeskyIsTheInverse) {
   EXPECT_EQ(inverse, inverse.transpose());  // exactly symmetric
 }
 
+// Both paths: Eigen's solve (up to 64 right-hand sides) and LAPACK's (more).
 TEST_P(DenseLinearAlgebraTest, TriangularSolvesMatchEigen) {
   const int n = GetParam();
   const Eigen::MatrixXd l = Spd(n, 3).llt().matrixL();
   std::srand(4);
-  const Eigen::MatrixXd b = Eigen::MatrixXd::Random(n, 9);
-  Eigen::MatrixXd storage = Eigen::MatrixXd::Constant(n + 2, 12, 7.0);
-  storage.topLeftCorner(n, 9) = b;
-  SolveLower(l, storage.topLeftCorner(n, 9));
-  EXPECT_LT(RelativeError(l * storage.topLeftCorner(n, 9), b), 1e-12);
-  storage.topLeftCorner(n, 9) = b;
-  SolveLowerTransposed(l, storage.topLeftCorner(n, 9));
-  EXPECT_LT(RelativeError(l.transpose() * storage.topLeftCorner(n, 9), b), 1e-12);
-  EXPECT_TRUE((storage.bottomRows(2).array() == 7.0).all());
-  EXPECT_TRUE((storage.rightCols(3).array() == 7.0).all());
+  for (const int m : {9, 64, 65, 100}) {
+    const Eigen::MatrixXd b = Eigen::MatrixXd::Random(n, m);
+    Eigen::MatrixXd storage = Eigen::MatrixXd::Constant(n + 2, m + 3, 7.0);
+    storage.topLeftCorner(n, m) = b;
+    SolveLower(l, storage.topLeftCorner(n, m));
+    EXPECT_LT(RelativeError(l * storage.topLeftCorner(n, m), b), 1e-12) << m;
+    storage.topLeftCorner(n, m) = b;
+    SolveLowerTransposed(l, storage.topLeftCorner(n, m));
+    EXPECT_LT(RelativeError(l.transpose() * storage.topLeftCorner(n, m), b), 1e-12) << m;
+    EXPECT_TRUE((storage.bottomRows(2).array() == 7.0).all());
+    EXPECT_TRUE((storage.rightCols(3).array() == 7.0).all());
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Sizes, DenseLinearAlgebraTest, ::testing::Values(1, 5, 300));

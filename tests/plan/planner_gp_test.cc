@@ -7,6 +7,7 @@
 #include <random>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "server/gp/dynamics_model.h"
 #include "server/plan/entropy_objective.h"
@@ -15,6 +16,7 @@
 #include "server/plan/multiple_shooting_nlp.h"
 #include "server/plan/planner.h"
 #include "server/plan/steering_objective.h"
+#include "server/plan/strategy.h"
 #include "tests/plan/pendulum_gp.h"
 
 namespace excite::plan {
@@ -39,36 +41,47 @@ TEST(PlannerGpTest, IpoptDerivativeCheckerOnTheGp) {
       << log;
 }
 
-// Plans on two threads at once, whose model work runs outside Ipopt's lock and
-// interleaves with the other solve, are the plans each makes alone, to the bit.
+// Plans on four threads, two solves at once (the solve slots of a 2-core
+// server), whose model work runs outside Ipopt's lock and interleaves with the
+// other solve's Ipopt steps, are the plans each makes alone, to the bit: for the
+// strategies that solve with Ipopt along a trajectory (rec, pa, optimistic).
 TEST(PlannerGpTest, ConcurrentPlansAreThePlansMadeAlone) {
   const gp::DynamicsModel first = FittedModel(150);
   const gp::DynamicsModel second = FittedModel(220);
-  PlanOptions o;
-  o.strategy = Strategy::kRec;
-  o.input_lower = Eigen::VectorXd::Constant(1, -3.0);
-  o.input_upper = Eigen::VectorXd::Constant(1, 3.0);
-  const auto plan = [&o](const gp::DynamicsModel& model, double angle) {
-    Planner planner(o);
-    Eigen::MatrixXd inputs;
-    for (int step = 0; step < 3; ++step) {  // warm-started replans
-      auto p = planner.PlanInputs(model, Eigen::Vector2d(angle, 0.1 * step), 0,
-                                  PlanLimits{}, nullptr);
-      EXPECT_TRUE(p.ok()) << p.status();
-      if (p.ok()) inputs = p->inputs;
+  const gp::DynamicsModel* const models[] = {&first, &second};
+  const double angles[] = {0.2, -0.4};
+  for (const Strategy strategy : {Strategy::kRec, Strategy::kPa, Strategy::kOptimistic}) {
+    PlanOptions o;
+    o.strategy = strategy;
+    o.input_lower = Eigen::VectorXd::Constant(1, -3.0);
+    o.input_upper = Eigen::VectorXd::Constant(1, 3.0);
+    const auto plan = [&o](const gp::DynamicsModel& model, double angle) {
+      Planner planner(o);
+      Eigen::MatrixXd inputs;
+      for (int step = 0; step < 3; ++step) {  // warm-started replans
+        PlanSummary summary;
+        auto p = planner.PlanInputs(model, Eigen::Vector2d(angle, 0.1 * step), 0,
+                                    PlanLimits{}, &summary);
+        EXPECT_TRUE(p.ok()) << p.status();
+        if (p.ok()) inputs = p->inputs;
+      }
+      return inputs;
+    };
+    SetConcurrentSolves(1);
+    const Eigen::MatrixXd alone[] = {plan(*models[0], angles[0]),
+                                     plan(*models[1], angles[1])};
+    SetConcurrentSolves(2);
+    Eigen::MatrixXd together[4];
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 4; ++t) {
+      threads.emplace_back([&, t] { together[t] = plan(*models[t % 2], angles[t % 2]); });
     }
-    return inputs;
-  };
-  const Eigen::MatrixXd alone_first = plan(first, 0.2);
-  const Eigen::MatrixXd alone_second = plan(second, -0.4);
-  for (int round = 0; round < 3; ++round) {
-    Eigen::MatrixXd together_first, together_second;
-    std::thread other([&] { together_second = plan(second, -0.4); });
-    together_first = plan(first, 0.2);
-    other.join();
-    EXPECT_EQ(together_first, alone_first);
-    EXPECT_EQ(together_second, alone_second);
+    for (std::thread& t : threads) t.join();
+    for (int t = 0; t < 4; ++t) {
+      EXPECT_EQ(together[t], alone[t % 2]) << InfoOf(strategy).name << " thread " << t;
+    }
   }
+  SetConcurrentSolves(1);
 }
 
 TEST(PlannerGpTest, RecPlanBeatsRandomSequences) {

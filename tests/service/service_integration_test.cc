@@ -22,9 +22,11 @@
 #include "grpcpp/create_channel.h"
 #include "grpcpp/security/credentials.h"
 #include "gtest/gtest.h"
+#include "server/plan/ipopt_lock.h"
 #include "server/service/config_text.h"
 #include "server/service/config_validation.h"
 #include "server/service/excite_server.h"
+#include "server/session/machine_limits.h"
 #include "server/store/sqlite_store.h"
 #include "tests/service/pendulum_data.h"
 #include "tests/service/service_fixture.h"
@@ -800,6 +802,34 @@ TEST(ServiceCapsTest, EachCapIsResourceExhausted) {
   const absl::Status too_big = client->Predict(predict).status();
   EXPECT_EQ(too_big.code(), absl::StatusCode::kResourceExhausted) << too_big;
   EXPECT_THAT(std::string(too_big.message()), HasSubstr("larger than max"));
+}
+
+// --planner_workers: out of range is INVALID_ARGUMENT naming it; in range, it is
+// the number of solves the process runs at once; 0 is the cores it may use.
+TEST(ServiceCapsTest, PlannerWorkersSetTheSolvesThatRunAtOnce) {
+  excite::testing::TempDir tmp;
+  ServerOptions options;
+  options.listen = "127.0.0.1:0";
+  options.data_dir = tmp.path() + "/data";
+  for (const int bad : {-1, 1025}) {
+    options.planner_workers = bad;
+    ExpectStatus(ExciteServer::Start(options).status(),
+                 absl::StatusCode::kInvalidArgument,
+                 "planner_workers must be in [0, 1024]");
+  }
+  options.planner_workers = 3;
+  {
+    absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
+    ASSERT_TRUE(server.ok()) << server.status();
+    EXPECT_EQ(plan::ConcurrentSolves(), 3);
+  }
+  options.planner_workers = 0;
+  {
+    absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
+    ASSERT_TRUE(server.ok()) << server.status();
+    EXPECT_EQ(plan::ConcurrentSolves(), session::AvailableCores());
+  }
+  plan::SetConcurrentSolves(1);
 }
 
 // Sessions work in parallel; one session's calls are serialised. Four threads
