@@ -20,6 +20,7 @@
 #include "common/logging.h"
 #include "common/usage.h"
 #include "server/blas/blas_lock.h"
+#include "server/blas/cpu_kernels.h"
 #include "server/plan/ipopt_lock.h"
 #include "server/service/auth.h"
 #include "server/service/excite_server.h"
@@ -84,6 +85,7 @@ using excite::Log;
 using excite::LogLevel;
 
 int Run(int argc, char** argv) {
+  excite::blas::RunAgainWithTheCpusBlasKernels(argv);
   excite::ParseFlags(
       argc, argv,
       "excite-server [--listen=HOST:PORT] [--data_dir=DIR] [--log_level=LEVEL]");
@@ -95,6 +97,9 @@ int Run(int argc, char** argv) {
     return 2;
   }
   excite::SetLogLevel(*level);
+  if (const std::string core = excite::blas::OpenBlasCore(); !core.empty()) {
+    Log(LogLevel::kDebug, absl::StrCat("OpenBLAS kernels: ", core));
+  }
   if (absl::Status blas = excite::blas::CheckBlasRunsOnTheCallingThread(); !blas.ok()) {
     std::fprintf(stderr, "excite-server: %s\n", std::string(blas.message()).c_str());
     return 2;

@@ -16,6 +16,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "common/usage.h"
+#include "server/blas/cpu_kernels.h"
 #include "server/gp/gp_model.h"
 #include "server/gp/hyperparameter_fit.h"
 
@@ -122,6 +123,7 @@ int Run() {
 }  // namespace excite::gp
 
 int main(int argc, char** argv) {
+  excite::blas::RunAgainWithTheCpusBlasKernels(argv);  // as the server
   excite::ParseFlags(argc, argv,
                      "gp_fit_once --data=FILE [--min_lengthscale=...]: one cold ML-II "
                      "fit, printed as JSON");

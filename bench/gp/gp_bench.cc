@@ -8,6 +8,7 @@
 #include <cmath>
 #include <random>
 
+#include "server/blas/cpu_kernels.h"
 #include "server/gp/dynamics_model.h"
 #include "server/gp/gp_model.h"
 #include "server/gp/hyperparameters.h"
@@ -194,4 +195,12 @@ BENCHMARK(BM_RefitColdPendulum)
 }  // namespace
 }  // namespace excite::gp
 
-BENCHMARK_MAIN();
+// The kernels the server runs with (server/blas/cpu_kernels.h).
+int main(int argc, char** argv) {
+  excite::blas::RunAgainWithTheCpusBlasKernels(argv);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -8,7 +8,7 @@ objective within 5 % of a 10x longer solve. Steps:
    and writes the trajectory (the data; PRBS because it is cheap to collect, the
    cost of a plan depends on n, not on who chose the inputs).
 2. For each refit policy, a fresh session of sim/configs/half_cheetah.textproto gets
-   the first n transitions and one Predict (the first, cold fit, not timed); then
+   the first n transitions and one Predict (the first, cold fit, timed apart); then
    --steps times: AddData of the next transition, PlanInputs at its next state,
    timed at the client (the refit the policy asks for runs inside PlanInputs).
    Policies: "paper" (the config's: refit at every sample) and "default" (the
@@ -65,12 +65,14 @@ def session_config(policy, long_solve):
 
 
 def fit_first(session):
-    """The cold fit, not timed: a Predict whose refit may need more than one call's
-    time budget (the server keeps its progress; the next call continues it)."""
+    """The cold fit, timed apart from the plans: a Predict whose refit may need more
+    than one call's time budget (the server keeps its progress; the next call
+    continues it). Returns its seconds, all calls together."""
+    t0 = time.perf_counter()
     for _ in range(20):
         try:
             session.predict(np.zeros((1, DX + DU)))
-            return
+            return time.perf_counter() - t0
         except grpc.RpcError as e:
             if e.code() != grpc.StatusCode.DEADLINE_EXCEEDED:
                 raise
@@ -81,7 +83,7 @@ def run(client, policy, long_solve, xs, us, nexts, n, steps):
     session = client.create_session(session_config(policy, long_solve))
     try:
         session.add(xs[:n], us[:n], nexts[:n])
-        fit_first(session)
+        fit_s = fit_first(session)
         times, objectives, iterations = [], [], []
         for k in range(n, n + steps):
             session.add(xs[k:k + 1], us[k:k + 1], nexts[k:k + 1])
@@ -90,7 +92,7 @@ def run(client, policy, long_solve, xs, us, nexts, n, steps):
             times.append(time.perf_counter() - t0)
             objectives.append(plan.objective)
             iterations.append(plan.iterations)
-        return 1000 * np.array(times), np.array(objectives), np.array(iterations)
+        return 1000 * np.array(times), np.array(objectives), np.array(iterations), fit_s
     finally:
         session.delete()
 
@@ -118,15 +120,16 @@ def measure(args, address):
           f"{args.seed})", flush=True)
     results = {}
     for policy, long_solve in (("paper", False), ("default", False), ("default", True)):
-        ms, objective, iterations = run(client, policy, long_solve, xs, us, nexts,
-                                        args.n, args.steps)
+        ms, objective, iterations, fit_s = run(client, policy, long_solve, xs, us, nexts,
+                                               args.n, args.steps)
         results[(policy, long_solve)] = objective
         name = f"{policy} refit{', 10x longer solve' if long_solve else ''}"
         # Ipopt iterations summed over the plan's starts: a plan whose starts all
         # run to planner.max_iterations is slow for that reason.
         print(f"{name}: PlanInputs p50 {np.median(ms):.0f} ms, slowest "
               f"{ms.max():.0f} ms, objective mean {objective.mean():.3f} nats, "
-              f"Ipopt iterations p50 {np.median(iterations):.0f}", flush=True)
+              f"Ipopt iterations p50 {np.median(iterations):.0f}; cold fit of the "
+              f"{DX} outputs {fit_s:.1f} s", flush=True)
     # The objective is maximised and may be negative (small variances): the
     # shortfall is what the normal solve leaves below the longer one, relative
     # to the longer one's size (negative: the normal solve found more).

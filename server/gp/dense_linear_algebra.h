@@ -7,8 +7,9 @@ namespace excite::gp {
 
 // The O(n^3) and O(n^2 m) kernels of the exact GP, on the system's LAPACK and
 // BLAS: OpenBLAS's serial build where scripts/setup.sh or the image installed it.
-// OpenBLAS picks AVX2/FMA or AVX-512 code for the CPU at run time, so a portable
-// binary gets them; Eigen's own kernels only use the instructions the build
+// OpenBLAS picks AVX2/FMA or AVX-512 code for the CPU at run time (excite-server
+// makes sure of it where OpenBLAS does not know the CPU: blas/cpu_kernels.h), so a
+// portable binary gets them; Eigen's own kernels only use the instructions the build
 // targets (SSE2 for a portable x86-64 build), 3-4x slower here at n >= 500
 // (bench/gp). Each call runs on the calling thread, under blas::BlasLock (calls
 // from several threads overlap only on a thread-safe BLAS), except the small

@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "tests/e2e/subprocess.h"
@@ -523,6 +524,30 @@ TEST(EndToEndNoServerTest, SimRejectsUnknownStrategy) {
 
 // `--help` of each program lists that program's own flags and exits 0 (it used
 // to print "No flags matched." and exit 1).
+// On a CPU with AVX2 and FMA the server runs OpenBLAS's kernels for it, also where
+// OpenBLAS does not know the CPU's model and falls back to Prescott's (this
+// machine kind: server/blas/cpu_kernels.h); a user's OPENBLAS_CORETYPE is kept.
+TEST(EndToEndNoServerTest, ServerRunsTheCpusOpenBlasKernels) {
+  TempDir work("excite-e2e-kernels");
+  auto server =
+      Subprocess::Start({EXCITE_SERVER_PATH, "--listen=127.0.0.1:0",
+                         "--data_dir=" + work.path() + "/data", "--log_level=debug"},
+                        work.path() + "/server.out", work.path() + "/server.err");
+  ASSERT_TRUE(server.ok()) << server.status();
+  ASSERT_TRUE((*server)->WaitForStdoutLine(kListeningPrefix, seconds(30)).ok());
+  (*server)->Signal(SIGTERM);
+  ASSERT_TRUE((*server)->Wait(seconds(30)).ok());
+  const std::string log = ReadFileOrEmpty((*server)->stderr_path());
+  const size_t at = log.find("OpenBLAS kernels: ");
+  if (at == std::string::npos) GTEST_SKIP() << "the BLAS is not OpenBLAS";
+  const std::string core = log.substr(at + 18, log.find('\n', at) - at - 18);
+  if (const char* set = std::getenv("OPENBLAS_CORETYPE"); set != nullptr) {
+    EXPECT_EQ(absl::AsciiStrToLower(core), absl::AsciiStrToLower(set));
+  } else if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+    EXPECT_NE(core, "Prescott") << log;
+  }
+}
+
 TEST(EndToEndNoServerTest, HelpListsEachProgramsFlagsAndExitsZero) {
   TempDir work("excite-e2e-help");
   const std::vector<std::pair<std::string, std::vector<std::string>>> programs = {
