@@ -21,7 +21,7 @@
 #include "common/usage.h"
 #include "server/blas/blas_lock.h"
 #include "server/blas/cpu_kernels.h"
-#include "server/plan/ipopt_lock.h"
+#include "server/plan/plan_slots.h"
 #include "server/service/auth.h"
 #include "server/service/excite_server.h"
 
@@ -168,7 +168,7 @@ int Run(int argc, char** argv) {
     return 1;
   }
 
-  Log(LogLevel::kInfo, absl::StrCat("plans up to ", excite::plan::ConcurrentSolves(),
+  Log(LogLevel::kInfo, absl::StrCat("plans up to ", excite::plan::ConcurrentPlans(),
                                     " sessions at once (--planner_workers)"));
   if ((*server)->metrics_port() > 0) {
     Log(LogLevel::kInfo,

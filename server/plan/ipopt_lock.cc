@@ -1,10 +1,7 @@
 #include "server/plan/ipopt_lock.h"
 
-#include <algorithm>
 #include <atomic>
 
-#include "absl/base/thread_annotations.h"
-#include "absl/synchronization/mutex.h"
 #include "server/blas/blas_lock.h"
 
 namespace excite::plan {
@@ -24,40 +21,6 @@ thread_local Clock::time_point taken;
 int64_t NanosecondsSince(Clock::time_point start) {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start)
       .count();
-}
-
-// A counting semaphore over the solve slots (C++17 has none).
-class SolveSlots {
- public:
-  void SetLimit(int limit) {
-    absl::MutexLock lock(&mu_);
-    limit_ = std::max(1, limit);
-  }
-  int limit() {
-    absl::MutexLock lock(&mu_);
-    return limit_;
-  }
-  void Acquire() {
-    mu_.LockWhen(absl::Condition(this, &SolveSlots::Free));
-    ++in_use_;
-    mu_.Unlock();
-  }
-  void Release() {
-    absl::MutexLock lock(&mu_);
-    --in_use_;
-  }
-
- private:
-  bool Free() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) { return in_use_ < limit_; }
-
-  absl::Mutex mu_;
-  int limit_ ABSL_GUARDED_BY(mu_) = 1;
-  int in_use_ ABSL_GUARDED_BY(mu_) = 0;
-};
-
-SolveSlots& Slots() {
-  static SolveSlots* const slots = new SolveSlots;
-  return *slots;
 }
 
 // Takes IpoptMutex(), then the BLAS lock if the BLAS needs it (always in this
@@ -91,21 +54,13 @@ std::mutex& IpoptMutex() {
   return *mutex;
 }
 
-void SetConcurrentSolves(int solves) { Slots().SetLimit(solves); }
-
-int ConcurrentSolves() { return Slots().limit(); }
-
 TimedIpoptLock::TimedIpoptLock() {
-  const auto asked = Clock::now();
-  Slots().Acquire();
-  wait_ns.fetch_add(NanosecondsSince(asked), std::memory_order_relaxed);
   acquisitions.fetch_add(1, std::memory_order_relaxed);
   TakeIpopt();
 }
 
 TimedIpoptLock::~TimedIpoptLock() {
   if (holds_ipopt) GiveIpoptBack();
-  Slots().Release();
 }
 
 IpoptCallbackUnlock::IpoptCallbackUnlock() {

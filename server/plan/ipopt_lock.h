@@ -11,25 +11,17 @@ namespace excite::plan {
 // Ipopt 3.11, is not thread-safe (coin-or/Ipopt#733), so Ipopt's own work
 // (create, Initialize, the iterations' linear algebra, destroy) runs under one
 // process-wide mutex, IpoptMutex(). A solve gives it up while its NLP calls back
-// into the model (IpoptCallbackUnlock), which is most of a plan's time: up to
-// ConcurrentSolves() solves then run their model work in parallel, and take
-// turns only for Ipopt's own steps. This is what Ipopt 3.14 does inside (MUMPS
-// under a mutex per call), done one level up: MUMPS instances take turns between
-// calls, never inside one.
+// into the model (IpoptCallbackUnlock), which is about half of a plan's time:
+// the model work of concurrent plans (plan_slots.h bounds them) runs in parallel,
+// and they take turns only for Ipopt's own steps. This is what Ipopt 3.14 does
+// inside (MUMPS under a mutex per call), done one level up: MUMPS instances take
+// turns between calls, never inside one.
 
 // The mutex around Ipopt's own work. Code that drives Ipopt itself must hold it.
 std::mutex& IpoptMutex();
 
-// The solves that may be under way at once (each holding a solve slot); at
-// least 1. Set once at start (excite-server's --planner_workers); 1 until then.
-// More solves than cores would only interleave their model work on the same
-// cores and wait longer for IpoptMutex() (16 against 24 plans/s with 32 solves
-// on 2 cores, docs/measurements.md), so a solve first waits for a slot.
-void SetConcurrentSolves(int solves);
-int ConcurrentSolves();
-
-// One solve's hold on Ipopt, for its lifetime: a solve slot, then IpoptMutex(),
-// and blas::BlasMutex() too when the BLAS is not thread-safe
+// One solve's hold on Ipopt, for its lifetime: IpoptMutex(), and
+// blas::BlasMutex() too when the BLAS is not thread-safe
 // (blas::BlasNeedsSerialising()), since MUMPS calls the BLAS. Adds the waits and
 // the holds to the process's IpoptLockTotals.
 class TimedIpoptLock {
@@ -42,7 +34,7 @@ class TimedIpoptLock {
 
 // In an Ipopt callback: releases IpoptMutex() and the BLAS lock that this thread's
 // TimedIpoptLock holds, for its lifetime (the model's own BLAS calls take the
-// BLAS lock call by call), and takes them back at its end; the solve slot stays.
+// BLAS lock call by call), and takes them back at its end.
 // A no-op when this thread holds none (a callback called directly, as tests do).
 class IpoptCallbackUnlock {
  public:
@@ -56,8 +48,8 @@ class IpoptCallbackUnlock {
 };
 
 // What TimedIpoptLocks spent since the process started: how many solves took
-// them, how long solves waited (for a slot, and for IpoptMutex() at the start and
-// after each callback) and how long IpoptMutex() was held, callbacks excluded.
+// them, how long solves waited for IpoptMutex() (at the start and after each
+// callback) and how long it was held, callbacks excluded.
 // The held time per second of wall time is the share of one core that Ipopt's
 // own work is serialised on.
 struct IpoptLockTotals {

@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "server/gp/flush_denormals.h"
 #include "server/plan/auto_planner.h"
+#include "server/plan/plan_slots.h"
 #include "server/plan/sep_planner.h"
 #include "server/plan/shooting_solver.h"
 
@@ -67,6 +68,10 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
 
   PlanSummary local;
   local.planned_by = options_.strategy;
+  PlanSlot slot;  // signals are instant: they take none
+  if (strategy.method != PlanMethod::kSignal) {
+    if (absl::Status s = slot.Acquire(limits.deadline, cancelled); !s.ok()) return s;
+  }
   absl::StatusOr<Plan> plan;
   if (strategy.method == PlanMethod::kBandit) {
     if (auto_ == nullptr) auto_ = std::make_unique<AutoPlanner>(options_);

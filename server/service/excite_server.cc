@@ -15,7 +15,7 @@
 #include "grpcpp/health_check_service_interface.h"
 #include "grpcpp/security/server_credentials.h"
 #include "grpcpp/server_builder.h"
-#include "server/plan/ipopt_lock.h"
+#include "server/plan/plan_slots.h"
 #include "server/service/malformed_request_interceptor.h"
 #include "server/session/machine_limits.h"
 #include "server/store/postgres_store.h"
@@ -24,7 +24,7 @@
 namespace excite::service {
 namespace {
 
-// More would only queue more solves on the cores (plan::SetConcurrentSolves).
+// More would only queue more plans on the cores (plan::SetConcurrentPlans).
 constexpr int kMaxPlannerWorkers = 1024;
 
 }  // namespace
@@ -108,8 +108,8 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
         "planner_workers must be in [0, ", kMaxPlannerWorkers,
         "] (0: the cores this process may use), got ", options.planner_workers));
   }
-  plan::SetConcurrentSolves(options.planner_workers > 0 ? options.planner_workers
-                                                        : session::AvailableCores());
+  plan::SetConcurrentPlans(options.planner_workers > 0 ? options.planner_workers
+                                                       : session::AvailableCores());
   server->budget_ = std::make_unique<MemoryBudget>(
       options.memory_budget_bytes > 0 ? options.memory_budget_bytes
                                       : session::DefaultMemoryBudgetBytes());
@@ -181,7 +181,7 @@ absl::StatusOr<std::unique_ptr<ExciteServer>> ExciteServer::Start(
         [budget]() { return static_cast<double>(budget->limit()); });
     server->metrics_->AddGauge(
         "excite_planner_workers", "Plans that may run at once (--planner_workers).",
-        []() { return static_cast<double>(plan::ConcurrentSolves()); });
+        []() { return static_cast<double>(plan::ConcurrentPlans()); });
     absl::StatusOr<std::unique_ptr<MetricsEndpoint>> endpoint =
         MetricsEndpoint::Start(options.metrics_listen, server->metrics_.get());
     if (!endpoint.ok()) return endpoint.status();

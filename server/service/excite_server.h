@@ -50,8 +50,8 @@ struct ServerOptions {
   std::string metrics_listen;
   // The memory budget (see MemoryBudget) in bytes; 0: DefaultMemoryBudgetBytes().
   int64_t memory_budget_bytes = 0;
-  // Plans (Ipopt solves) that may run at once, over all sessions (see
-  // plan::SetConcurrentSolves; process-wide); 0: session::AvailableCores().
+  // Model-based plans that may run at once, over all sessions (see
+  // plan::SetConcurrentPlans; process-wide); 0: session::AvailableCores().
   int planner_workers = 0;
   // HOST:PORT of the live view (web::WebView: a page and its JSON API, with the
   // same TLS and token as the API); empty: none. Port 0 picks a free one

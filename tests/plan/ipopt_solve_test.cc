@@ -3,11 +3,9 @@
 
 #include "server/plan/ipopt_solve.h"
 
-#include <atomic>
 #include <chrono>
 #include <mutex>
 #include <thread>
-#include <vector>
 
 #include "gtest/gtest.h"
 #include "server/blas/blas_lock.h"
@@ -134,54 +132,6 @@ TEST(IpoptSolveTest, CallbacksLetOtherThreadsUseIpoptAndTheBlas) {
   EXPECT_GT(nlp->blas_taken_by_another_thread, 0);
   EXPECT_GT(nlp->ipopt_taken_by_another_thread, 0);
   EXPECT_EQ(nlp->ipopt_taken_outside_the_open_callback, 0);
-}
-
-// A parabola whose objective callback gives Ipopt's lock up, as the planner's,
-// and counts the callbacks running at once in all solves.
-class ParallelParabola : public Parabola {
- public:
-  bool eval_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
-              Ipopt::Number& value) override {
-    const IpoptCallbackUnlock unlocked;
-    const int now = ++running;
-    int seen = most_at_once.load();
-    while (now > seen && !most_at_once.compare_exchange_weak(seen, now)) {
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    --running;
-    return Parabola::eval_f(n, x, new_x, value);
-  }
-  static std::atomic<int> running;
-  static std::atomic<int> most_at_once;
-};
-std::atomic<int> ParallelParabola::running{0};
-std::atomic<int> ParallelParabola::most_at_once{0};
-
-// Four threads solving at once: their model work overlaps up to the solve slots
-// set, never beyond, and each solves its problem.
-TEST(IpoptSolveTest, SolveSlotsBoundTheSolvesThatRunAtOnce) {
-  for (const int slots : {1, 2, 3}) {
-    SetConcurrentSolves(slots);
-    ParallelParabola::most_at_once = 0;
-    std::vector<Ipopt::SmartPtr<ParallelParabola>> nlps;
-    std::vector<IpoptOutcome> outcomes(4);
-    std::vector<std::thread> threads;
-    for (int t = 0; t < 4; ++t) nlps.push_back(new ParallelParabola());
-    for (int t = 0; t < 4; ++t) {
-      threads.emplace_back([&, t] { outcomes[t] = SolveTnlp(nlps[t], IpoptSettings()); });
-    }
-    for (std::thread& t : threads) t.join();
-    for (int t = 0; t < 4; ++t) {
-      EXPECT_EQ(outcomes[t].status, Ipopt::Solve_Succeeded) << slots << " slots";
-      EXPECT_NEAR(nlps[t]->solution, 3.0, 1e-6);
-    }
-    // Dozens of 2 ms callbacks per solve: with room for them, they do overlap.
-    EXPECT_EQ(ParallelParabola::most_at_once.load(), slots);
-  }
-  SetConcurrentSolves(1);
-  EXPECT_EQ(ConcurrentSolves(), 1);
-  SetConcurrentSolves(0);  // at least one
-  EXPECT_EQ(ConcurrentSolves(), 1);
 }
 
 // A parabola whose objective takes 30 ms of wall time and no CPU time.

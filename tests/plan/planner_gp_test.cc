@@ -14,6 +14,7 @@
 #include "server/plan/entropy_search.h"
 #include "server/plan/ipopt_solve.h"
 #include "server/plan/multiple_shooting_nlp.h"
+#include "server/plan/plan_slots.h"
 #include "server/plan/planner.h"
 #include "server/plan/steering_objective.h"
 #include "server/plan/strategy.h"
@@ -41,10 +42,10 @@ TEST(PlannerGpTest, IpoptDerivativeCheckerOnTheGp) {
       << log;
 }
 
-// Plans on four threads, two solves at once (the solve slots of a 2-core
-// server), whose model work runs outside Ipopt's lock and interleaves with the
-// other solve's Ipopt steps, are the plans each makes alone, to the bit: for the
-// strategies that solve with Ipopt along a trajectory (rec, pa, optimistic).
+// Plans on four threads, two at once (the plan slots of a 2-core server), whose model
+// work runs outside Ipopt's lock and interleaves with the other solve's Ipopt steps, are
+// the plans each makes alone, to the bit: for the strategies that solve with Ipopt along
+// a trajectory (rec, pa, optimistic).
 TEST(PlannerGpTest, ConcurrentPlansAreThePlansMadeAlone) {
   const gp::DynamicsModel first = FittedModel(150);
   const gp::DynamicsModel second = FittedModel(220);
@@ -67,10 +68,10 @@ TEST(PlannerGpTest, ConcurrentPlansAreThePlansMadeAlone) {
       }
       return inputs;
     };
-    SetConcurrentSolves(1);
+    SetConcurrentPlans(1);
     const Eigen::MatrixXd alone[] = {plan(*models[0], angles[0]),
                                      plan(*models[1], angles[1])};
-    SetConcurrentSolves(2);
+    SetConcurrentPlans(2);
     Eigen::MatrixXd together[4];
     std::vector<std::thread> threads;
     for (int t = 0; t < 4; ++t) {
@@ -81,7 +82,7 @@ TEST(PlannerGpTest, ConcurrentPlansAreThePlansMadeAlone) {
       EXPECT_EQ(together[t], alone[t % 2]) << InfoOf(strategy).name << " thread " << t;
     }
   }
-  SetConcurrentSolves(1);
+  SetConcurrentPlans(1);
 }
 
 TEST(PlannerGpTest, RecPlanBeatsRandomSequences) {

@@ -47,9 +47,9 @@ TEST(StrategyTableTest, EveryRowIsCompleteForItsMethod) {
   for (Strategy s : {Strategy::kPa, Strategy::kSep, Strategy::kAuto}) {
     EXPECT_FALSE(CanBeAutoMember(s)) << InfoOf(s).name;
   }
-  for (Strategy s : {Strategy::kRec, Strategy::kGreedy, Strategy::kMi, Strategy::kRoi,
-                     Strategy::kOptimistic, Strategy::kPrbs, Strategy::kChirp,
-                     Strategy::kRandom}) {
+  for (Strategy s :
+       {Strategy::kRec, Strategy::kGreedy, Strategy::kMi, Strategy::kRoi,
+        Strategy::kOptimistic, Strategy::kPrbs, Strategy::kChirp, Strategy::kRandom}) {
     EXPECT_TRUE(CanBeAutoMember(s)) << InfoOf(s).name;
   }
 }

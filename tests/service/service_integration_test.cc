@@ -22,7 +22,7 @@
 #include "grpcpp/create_channel.h"
 #include "grpcpp/security/credentials.h"
 #include "gtest/gtest.h"
-#include "server/plan/ipopt_lock.h"
+#include "server/plan/plan_slots.h"
 #include "server/service/config_text.h"
 #include "server/service/config_validation.h"
 #include "server/service/excite_server.h"
@@ -821,15 +821,15 @@ TEST(ServiceCapsTest, PlannerWorkersSetTheSolvesThatRunAtOnce) {
   {
     absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
     ASSERT_TRUE(server.ok()) << server.status();
-    EXPECT_EQ(plan::ConcurrentSolves(), 3);
+    EXPECT_EQ(plan::ConcurrentPlans(), 3);
   }
   options.planner_workers = 0;
   {
     absl::StatusOr<std::unique_ptr<ExciteServer>> server = ExciteServer::Start(options);
     ASSERT_TRUE(server.ok()) << server.status();
-    EXPECT_EQ(plan::ConcurrentSolves(), session::AvailableCores());
+    EXPECT_EQ(plan::ConcurrentPlans(), session::AvailableCores());
   }
-  plan::SetConcurrentSolves(1);
+  plan::SetConcurrentPlans(1);
 }
 
 // Sessions work in parallel; one session's calls are serialised. Four threads

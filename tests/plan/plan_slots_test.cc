@@ -1,0 +1,102 @@
+// Plan slots: no more plans hold one at once than the limit, a plan inside a plan
+// takes none, and a wait ends at the deadline or a cancel without a slot.
+
+#include "server/plan/plan_slots.h"
+
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "gtest/gtest.h"
+
+namespace excite::plan {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+TEST(PlanSlotsTest, AtMostTheLimitHoldASlotAtOnce) {
+  for (const int limit : {1, 2, 3}) {
+    SetConcurrentPlans(limit);
+    std::atomic<int> holding{0};
+    std::atomic<int> most{0};
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 6; ++t) {
+      threads.emplace_back([&] {
+        for (int round = 0; round < 5; ++round) {
+          PlanSlot slot;
+          ASSERT_TRUE(slot.Acquire(std::nullopt, nullptr).ok());
+          const int now = ++holding;
+          int seen = most.load();
+          while (now > seen && !most.compare_exchange_weak(seen, now)) {
+          }
+          std::this_thread::sleep_for(std::chrono::milliseconds(3));
+          --holding;
+        }
+      });
+    }
+    for (std::thread& t : threads) t.join();
+    // Six threads wanting slots for 3 ms at a time: the slots fill up, never beyond.
+    EXPECT_EQ(most.load(), limit);
+  }
+  SetConcurrentPlans(0);  // at least one
+  EXPECT_EQ(ConcurrentPlans(), 1);
+}
+
+TEST(PlanSlotsTest, APlanInsideAPlanUsesItsCallersSlot) {
+  SetConcurrentPlans(1);
+  PlanSlot outer;
+  ASSERT_TRUE(outer.Acquire(std::nullopt, nullptr).ok());
+  {
+    PlanSlot inner;  // would wait forever if it needed a second slot
+    EXPECT_TRUE(
+        inner.Acquire(Clock::now() + std::chrono::milliseconds(50), nullptr).ok());
+  }
+  // The inner one gave nothing back: another thread still finds no slot.
+  std::thread other([] {
+    PlanSlot slot;
+    EXPECT_TRUE(absl::IsDeadlineExceeded(
+        slot.Acquire(Clock::now() + std::chrono::milliseconds(50), nullptr)));
+  });
+  other.join();
+}
+
+TEST(PlanSlotsTest, AWaitEndsAtTheDeadlineOrACancel) {
+  SetConcurrentPlans(1);
+  PlanSlot held;
+  ASSERT_TRUE(held.Acquire(std::nullopt, nullptr).ok());
+  std::thread waiter([] {
+    PlanSlot slot;
+    const auto start = Clock::now();
+    const absl::Status late =
+        slot.Acquire(start + std::chrono::milliseconds(100), nullptr);
+    EXPECT_TRUE(absl::IsDeadlineExceeded(late)) << late;
+    EXPECT_NE(late.message().find("--planner_workers"), absl::string_view::npos);
+    EXPECT_GE(Clock::now() - start, std::chrono::milliseconds(100));
+    std::atomic<int> polls{0};
+    const absl::Status cancelled =
+        slot.Acquire(std::nullopt, [&polls] { return ++polls > 3; });
+    EXPECT_TRUE(absl::IsCancelled(cancelled)) << cancelled;
+  });
+  waiter.join();
+}
+
+TEST(PlanSlotsTest, AFreedSlotGoesToAWaiter) {
+  SetConcurrentPlans(1);
+  auto held = std::make_unique<PlanSlot>();
+  ASSERT_TRUE(held->Acquire(std::nullopt, nullptr).ok());
+  std::atomic<bool> got{false};
+  std::thread waiter([&got] {
+    PlanSlot slot;
+    got = slot.Acquire(Clock::now() + std::chrono::seconds(10), nullptr).ok();
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_FALSE(got.load());
+  held.reset();
+  waiter.join();
+  EXPECT_TRUE(got.load());
+}
+
+}  // namespace
+}  // namespace excite::plan
