@@ -16,32 +16,65 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-TEST(PlanSlotsTest, AtMostTheLimitHoldASlotAtOnce) {
+// `limit` threads each get a slot and hold it together; one more does not get one
+// until they give theirs back.
+TEST(PlanSlotsTest, TheLimitHoldSlotsTogetherAndNoMore) {
   for (const int limit : {1, 2, 3}) {
     SetConcurrentPlans(limit);
+    EXPECT_EQ(ConcurrentPlans(), limit);
     std::atomic<int> holding{0};
-    std::atomic<int> most{0};
+    std::atomic<bool> release{false};
     std::vector<std::thread> threads;
-    for (int t = 0; t < 6; ++t) {
+    for (int t = 0; t < limit; ++t) {
       threads.emplace_back([&] {
-        for (int round = 0; round < 5; ++round) {
-          PlanSlot slot;
-          ASSERT_TRUE(slot.Acquire(std::nullopt, nullptr).ok());
-          const int now = ++holding;
-          int seen = most.load();
-          while (now > seen && !most.compare_exchange_weak(seen, now)) {
-          }
-          std::this_thread::sleep_for(std::chrono::milliseconds(3));
-          --holding;
-        }
+        PlanSlot slot;
+        EXPECT_TRUE(slot.Acquire(Clock::now() + std::chrono::seconds(30), nullptr).ok());
+        ++holding;
+        while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(1));
       });
     }
+    const auto give_up = Clock::now() + std::chrono::seconds(30);
+    while (holding < limit && Clock::now() < give_up) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    EXPECT_EQ(holding.load(), limit);
+    {
+      PlanSlot extra;
+      EXPECT_TRUE(absl::IsDeadlineExceeded(
+          extra.Acquire(Clock::now() + std::chrono::milliseconds(50), nullptr)));
+    }
+    release = true;
     for (std::thread& t : threads) t.join();
-    // Six threads wanting slots for 3 ms at a time: the slots fill up, never beyond.
-    EXPECT_EQ(most.load(), limit);
+    PlanSlot after;
+    EXPECT_TRUE(after.Acquire(Clock::now() + std::chrono::seconds(30), nullptr).ok());
   }
   SetConcurrentPlans(0);  // at least one
   EXPECT_EQ(ConcurrentPlans(), 1);
+}
+
+// Many threads taking and giving slots: never more held at once than the limit.
+TEST(PlanSlotsTest, NeverMoreThanTheLimitUnderContention) {
+  SetConcurrentPlans(2);
+  std::atomic<int> holding{0};
+  std::atomic<int> most{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 6; ++t) {
+    threads.emplace_back([&] {
+      for (int round = 0; round < 20; ++round) {
+        PlanSlot slot;
+        ASSERT_TRUE(slot.Acquire(std::nullopt, nullptr).ok());
+        const int now = ++holding;
+        int seen = most.load();
+        while (now > seen && !most.compare_exchange_weak(seen, now)) {
+        }
+        std::this_thread::sleep_for(std::chrono::microseconds(500));
+        --holding;
+      }
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  EXPECT_LE(most.load(), 2);
+  EXPECT_GE(most.load(), 1);
 }
 
 TEST(PlanSlotsTest, APlanInsideAPlanUsesItsCallersSlot) {
