@@ -71,17 +71,22 @@ absl::Status PlanSlot::Acquire(
       return absl::CancelledError(
           "planning cancelled while it waited for a planner slot");
     }
+    // A free slot is taken also past the deadline: the planner answers a late call
+    // with its best plan so far; only a wait that outlasts the deadline fails.
     absl::Time until = absl::Now() + absl::Milliseconds(20);
+    bool last_try = false;
     if (deadline.has_value()) {
       const auto left = *deadline - std::chrono::steady_clock::now();
-      if (left <= std::chrono::steady_clock::duration::zero()) {
-        return absl::DeadlineExceededError(
-            "the deadline passed while the plan waited for a planner slot (all "
-            "--planner_workers were planning other sessions)");
-      }
-      until = std::min(until, absl::Now() + absl::FromChrono(left));
+      last_try = left <= std::chrono::steady_clock::duration::zero();
+      until =
+          last_try ? absl::Now() : std::min(until, absl::Now() + absl::FromChrono(left));
     }
     held_ = TheSlots().TakeBefore(until);
+    if (!held_ && last_try) {
+      return absl::DeadlineExceededError(
+          "the deadline passed while the plan waited for a planner slot (all "
+          "--planner_workers were planning other sessions)");
+    }
   }
   this_thread_plans = true;
   return absl::OkStatus();

@@ -27,8 +27,9 @@ class PlanSlot {
   PlanSlot(const PlanSlot&) = delete;
   PlanSlot& operator=(const PlanSlot&) = delete;
 
-  // Waits for a free slot. DEADLINE_EXCEEDED once `deadline` passes, CANCELLED once
-  // `cancelled()` is true (checked every 20 ms), without a slot then. On a thread
+  // Waits for a free slot. DEADLINE_EXCEEDED if none came free before `deadline`
+  // (a free slot is taken also after it), CANCELLED once `cancelled()` is true
+  // (checked every 20 ms), without a slot then. On a thread
   // that holds a slot already (a plan inside a plan, as auto's members), OK at once
   // and nothing more is taken.
   absl::Status Acquire(std::optional<std::chrono::steady_clock::time_point> deadline,

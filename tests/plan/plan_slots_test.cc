@@ -115,6 +115,14 @@ TEST(PlanSlotsTest, AWaitEndsAtTheDeadlineOrACancel) {
   waiter.join();
 }
 
+// The planner answers a call past its deadline with its best plan so far, so a
+// free slot is taken also then.
+TEST(PlanSlotsTest, AFreeSlotIsTakenAlsoPastTheDeadline) {
+  SetConcurrentPlans(1);
+  PlanSlot slot;
+  EXPECT_TRUE(slot.Acquire(Clock::now() - std::chrono::seconds(1), nullptr).ok());
+}
+
 TEST(PlanSlotsTest, AFreedSlotGoesToAWaiter) {
   SetConcurrentPlans(1);
   auto held = std::make_unique<PlanSlot>();
