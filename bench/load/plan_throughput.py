@@ -164,7 +164,6 @@ def main():
         for _ in range(args.rounds):
             for label, flags in setups:
                 runs[label].append(run_setup(args, flags, k))
-        reference = None
         for label, _ in setups:
             rates = [sum(len(per) for per in r[0]) / r[2] for r in runs[label]]
             results = [plans for r in runs[label] for plans in r[0]]
@@ -173,8 +172,8 @@ def main():
             cpu = sum(r[3] for r in runs[label])
             statuses = collections.Counter(p[2].replace("SOLVER_STATUS_", "").lower()
                                            for per in results for p in per)
-            if reference is None:
-                reference, versus = results, "reference"
+            if label == setups[0][0]:
+                versus = "reference"
             else:  # round by round: the k-th plan of session i in both
                 worst, changed, compared = 0.0, 0, 0
                 for mine, theirs in zip(runs[label], runs[setups[0][0]]):

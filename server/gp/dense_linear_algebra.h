@@ -31,8 +31,9 @@ Eigen::MatrixXd InverseFromCholesky(const Eigen::Ref<const Eigen::MatrixXd>& l);
 // (dtrsm), B with l.rows() rows. A B of at most 64 columns (the points of a plan's
 // model callback) is solved by Eigen's own kernel, without the BLAS lock, so that
 // the model work of plans of different sessions runs in parallel: 1.2-1.4x
-// OpenBLAS's time per call at 15-64 columns (3x at one), a plan at n = 1000 7 %
-// slower alone, and two at once 2x as many per second (docs/parallel-planning.md).
+// OpenBLAS's time per call at 15-64 columns against its SSE3 kernels, 1.5-2.5x
+// against its AVX-512 ones (3x at one column), a plan at n = 1000 7 % slower
+// alone, and two at once 2x as many per second (docs/parallel-planning.md).
 void SolveLower(const Eigen::Ref<const Eigen::MatrixXd>& l,
                 Eigen::Ref<Eigen::MatrixXd> b);
 void SolveLowerTransposed(const Eigen::Ref<const Eigen::MatrixXd>& l,

@@ -805,8 +805,8 @@ TEST(ServiceCapsTest, EachCapIsResourceExhausted) {
 }
 
 // --planner_workers: out of range is INVALID_ARGUMENT naming it; in range, it is
-// the number of solves the process runs at once; 0 is the cores it may use.
-TEST(ServiceCapsTest, PlannerWorkersSetTheSolvesThatRunAtOnce) {
+// the number of plans the process runs at once; 0 is the cores it may use.
+TEST(ServiceCapsTest, PlannerWorkersSetThePlansThatRunAtOnce) {
   excite::testing::TempDir tmp;
   ServerOptions options;
   options.listen = "127.0.0.1:0";
