@@ -28,6 +28,12 @@ class Slots {
     ++in_use_;
     return true;
   }
+  bool TryTake() {
+    absl::MutexLock lock(&mu_);
+    if (!Free()) return false;
+    ++in_use_;
+    return true;
+  }
   void Give() {
     absl::MutexLock lock(&mu_);
     --in_use_;
@@ -90,6 +96,13 @@ absl::Status PlanSlot::Acquire(
   }
   this_thread_plans = true;
   return absl::OkStatus();
+}
+
+bool PlanSlot::TryAcquire() {
+  if (this_thread_plans || held_) return false;
+  held_ = TheSlots().TryTake();
+  this_thread_plans = held_;
+  return held_;
 }
 
 }  // namespace excite::plan

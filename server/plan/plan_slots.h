@@ -34,6 +34,10 @@ class PlanSlot {
   // and nothing more is taken.
   absl::Status Acquire(std::optional<std::chrono::steady_clock::time_point> deadline,
                        const std::function<bool()>& cancelled);
+  // Takes a slot only if one is free now (a helper thread of a plan that holds a
+  // slot already: the work it would take over is otherwise done by its caller).
+  // False, without a slot, on a thread that holds one.
+  bool TryAcquire();
 
  private:
   bool held_ = false;

@@ -36,7 +36,8 @@ absl::Status ValidateSignal(const SignalOptions& signal, Strategy strategy) {
 }  // namespace
 
 std::vector<Strategy> PlanOptions::AutoMembers() const {
-  return auto_members.empty() ? DefaultAutoMembers(state_lower.size() > 0) : auto_members;
+  return auto_members.empty() ? DefaultAutoMembers(state_lower.size() > 0, auto_chooser)
+                              : auto_members;
 }
 
 absl::Status PlanOptions::Validate(int state_dim, int input_dim) const {

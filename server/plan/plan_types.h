@@ -61,10 +61,11 @@ struct PlanOptions {
   // mean (OPAX scales beta with a confidence level; 1 is its order for
   // well-calibrated GPs).
   double optimism_beta = 1.0;
-  // kAuto: the member strategies its bandit draws from (each CanBeAutoMember,
-  // no repeats); empty: DefaultAutoMembers.
+  // kAuto: the member strategies it chooses among (each CanBeAutoMember, no
+  // repeats); empty: DefaultAutoMembers.
   std::vector<Strategy> auto_members;
-  // auto_members, or DefaultAutoMembers for these options' state bounds.
+  AutoChooser auto_chooser = AutoChooser::kBandit;
+  // auto_members, or DefaultAutoMembers for these options' state bounds and chooser.
   std::vector<Strategy> AutoMembers() const;
   // State constraints on the planned mean trajectory of every model-based
   // strategy (inactive by default).

@@ -73,7 +73,7 @@ absl::StatusOr<Plan> Planner::PlanInputs(const gp::DynamicsPredictor& model,
     if (absl::Status s = slot.Acquire(limits.deadline, cancelled); !s.ok()) return s;
   }
   absl::StatusOr<Plan> plan;
-  if (strategy.method == PlanMethod::kBandit) {
+  if (strategy.method == PlanMethod::kMembers) {
     if (auto_ == nullptr) auto_ = std::make_unique<AutoPlanner>(options_);
     plan = auto_->PlanInputs(model, x0, time_index, limits, start.measured, &local);
   } else if (strategy.method == PlanMethod::kSignal) {

@@ -39,8 +39,9 @@ class AutoPlanner;
 //    the model is never evaluated (it need not be fitted), states/variances have 0
 //    rows, apply_count = M, the summary reports kConverged and objective 0.
 //  - kSep: separated search and control (sep_planner.h); needs state bounds.
-//  - kAuto: a bandit over member strategies (auto_planner.h), each planning with
-//    its own Planner; apply_count = 1.
+//  - kAuto: a choice among member strategies (auto_planner.h: a bandit, or a
+//    portfolio judged by one model criterion), each planning with its own
+//    Planner; apply_count = 1.
 // Ipopt solves are serialised process-wide (MUMPS in Ipopt 3.11 is not
 // thread-safe). Not thread-safe itself: one session's calls are serialised.
 class Planner {

@@ -196,10 +196,12 @@ std::array<StrategyInfo, 11> MakeTable() {
   at(Strategy::kOptimistic).make_objective = &OptimisticInformation;
 
   at(Strategy::kAuto) = Row(Strategy::kAuto, "auto",
-                            "a bandit (EXP3) over member strategies, each paid by the "
-                            "model's one-step error on the transitions its plans "
-                            "produce; applies one input per plan",
-                            PlanMethod::kBandit);
+                            "a choice among member strategies at every plan: a bandit "
+                            "(EXP3) paid by the model's one-step error on the "
+                            "transitions its plans produce, or a portfolio in which "
+                            "every member plans and the plan removing the most "
+                            "posterior variance wins; applies one input per plan",
+                            PlanMethod::kMembers);
   at(Strategy::kAuto).config_block = "auto";
   return table;
 }
@@ -223,7 +225,10 @@ bool CanBeAutoMember(Strategy strategy) {
          info.method == PlanMethod::kSignal;
 }
 
-std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds) {
+std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds, AutoChooser chooser) {
+  if (chooser == AutoChooser::kPortfolio) {
+    return {Strategy::kRec, Strategy::kMi, Strategy::kRandom};
+  }
   std::vector<Strategy> members = {Strategy::kRec, Strategy::kOptimistic};
   if (has_state_bounds) members.push_back(Strategy::kRoi);
   members.push_back(Strategy::kRandom);

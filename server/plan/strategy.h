@@ -43,9 +43,9 @@ enum class PlanMethod {
   // One multiple-shooting NLP maximising the strategy's objective along the
   // horizon (Ipopt).
   kTrajectory,
-  // auto: a bandit draws one member strategy per call (member_bandit.h), which
-  // plans; the plan's first input is applied.
-  kBandit,
+  // auto: a choice among member strategies per call (auto_planner.h: a bandit
+  // draws one, or a portfolio of all is judged); the plan's first input is applied.
+  kMembers,
 };
 
 // The open-loop signal of a kSignal strategy: inputs for samples
@@ -99,10 +99,16 @@ const StrategyInfo* FindStrategy(absl::string_view name);
 // trajectory strategies and the signals. Not pa (inside auto it applies one input,
 // so it is rec), sep (its plan must be applied whole) or auto itself.
 bool CanBeAutoMember(Strategy strategy);
-// auto's members when the config names none: rec, optimistic, roi (only with
-// state bounds, which it needs) and random, the one member that does not use the
-// model (docs/bench_paper/auto-rule-2026-12-06.md).
-std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds);
+// How auto picks each call's plan: a bandit draws one member
+// (docs/bench_paper/auto-rule-2026-12-06.md), or every member plans and one model
+// criterion picks (a portfolio, docs/bench_paper/auto-rule-2026-12-07.md).
+enum class AutoChooser { kBandit, kPortfolio };
+
+// auto's members when the config names none. The bandit: rec, optimistic, roi
+// (only with state bounds, which it needs) and random, the one member that does
+// not use the model. The portfolio: rec, mi and random, the members that plan in
+// about rec's time.
+std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds, AutoChooser chooser);
 // The index of the first of `members` that auto cannot take: one that cannot be a
 // member (*repeated = false) or one named before (*repeated = true); -1 if none.
 int FirstBadAutoMember(absl::Span<const Strategy> members, bool* repeated);

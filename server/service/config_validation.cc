@@ -149,15 +149,27 @@ absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& con
   return absl::OkStatus();  // restarts, max_iterations: config_rules.cc
 }
 
-// AutoConfig: members each once, each one that can be a member; the default
-// (plan::DefaultAutoMembers) filled in for STRATEGY_AUTO when none is named.
+// AutoConfig: a known chooser (UNSPECIFIED -> BANDIT); members each once, each
+// one that can be a member; the chooser's default (plan::DefaultAutoMembers)
+// filled in for STRATEGY_AUTO when none is named.
 absl::Status ValidateAuto(absl::string_view path, v1::SessionConfig* config) {
   if (config->strategy() != v1::STRATEGY_AUTO) return absl::OkStatus();
+  v1::AutoConfig* auto_config = config->mutable_auto_();
+  if (auto_config->chooser() == v1::AutoConfig::CHOOSER_UNSPECIFIED) {
+    auto_config->set_chooser(v1::AutoConfig::CHOOSER_BANDIT);
+  }
+  if (!v1::AutoConfig::Chooser_IsValid(auto_config->chooser())) {
+    return Invalid(
+        Field(Field(path, "auto"), "chooser"),
+        absl::StrCat("unknown value ", static_cast<int>(auto_config->chooser()),
+                     "; valid: CHOOSER_BANDIT, CHOOSER_PORTFOLIO"));
+  }
   const std::string mpath = Field(Field(path, "auto"), "members");
-  auto* members = config->mutable_auto_()->mutable_members();
+  auto* members = auto_config->mutable_members();
   if (members->empty()) {
     const bool bounds = config->state_bounds_size() == config->state_dim();
-    for (plan::Strategy member : plan::DefaultAutoMembers(bounds)) {
+    for (plan::Strategy member :
+         plan::DefaultAutoMembers(bounds, EngineChooser(auto_config->chooser()))) {
       members->Add(WireStrategy(member));
     }
     return absl::OkStatus();

@@ -61,9 +61,11 @@ inline constexpr int kMaxSparseFitSamples = 100000;
 //     state_dim of them; a fixed horizon (greedy: 1) overrides a valid one;
 //   refit.growth finite in [0, 10] (unset: 0.05);
 //   optimistic.beta in (0, 10] when set (filled in, 1, for optimistic);
-//   auto.members for STRATEGY_AUTO: each once, none of pa, sep, auto (empty:
+//   auto.chooser for STRATEGY_AUTO: UNSPECIFIED -> BANDIT; auto.members: each
+//     once, none of pa, sep, auto (empty: the chooser's
 //     plan::DefaultAutoMembers filled in); the members' needs (state bounds,
-//     joint covariances) and config defaults apply as for the strategy alone;
+//     joint covariances) and config defaults apply as for the strategy alone,
+//     and the portfolio's criterion's (roi's; mi's without state bounds);
 //   safety: 0 or state_dim state_bounds; margin finite in [0, 10] (unset with
 //     a box: 2);
 //   sparse.above_samples 0 or in [10, 1000000] (unset: 1000; strategies that

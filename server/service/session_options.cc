@@ -150,6 +150,7 @@ plan::PlanOptions PlanOptionsFromConfig(const v1::SessionConfig& config) {
     options.auto_members.push_back(
         EngineStrategy(static_cast<v1::Strategy>(member)).strategy);
   }
+  options.auto_chooser = EngineChooser(config.auto_().chooser());
   return options;
 }
 

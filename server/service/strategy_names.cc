@@ -52,11 +52,22 @@ v1::Strategy WireStrategy(plan::Strategy strategy) {
   return wire;
 }
 
+plan::AutoChooser EngineChooser(v1::AutoConfig::Chooser chooser) {
+  return chooser == v1::AutoConfig::CHOOSER_PORTFOLIO ? plan::AutoChooser::kPortfolio
+                                                      : plan::AutoChooser::kBandit;
+}
+
 std::vector<const plan::StrategyInfo*> StrategiesInUse(const v1::SessionConfig& config) {
   std::vector<const plan::StrategyInfo*> used = {&EngineStrategy(config.strategy())};
   if (used.front()->strategy == plan::Strategy::kAuto) {
     for (int member : config.auto_().members()) {
       used.push_back(&EngineStrategy(static_cast<v1::Strategy>(member)));
+    }
+    // The portfolio judges plans with roi's objective (mi's without state bounds),
+    // so it has their needs and reads roi's block.
+    if (config.auto_().chooser() == v1::AutoConfig::CHOOSER_PORTFOLIO) {
+      const bool bounds = config.state_bounds_size() == config.state_dim();
+      used.push_back(&plan::InfoOf(bounds ? plan::Strategy::kRoi : plan::Strategy::kMi));
     }
   }
   return used;

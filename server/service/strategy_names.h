@@ -27,8 +27,13 @@ const plan::StrategyInfo& EngineStrategy(v1::Strategy strategy);
 // The wire value of an engine strategy (plan::Strategy::kRec -> v1::STRATEGY_REC).
 v1::Strategy WireStrategy(plan::Strategy strategy);
 
+// auto's engine chooser (UNSPECIFIED and unknown values: the bandit).
+plan::AutoChooser EngineChooser(v1::AutoConfig::Chooser chooser);
+
 // The engine rows a config plans with: its strategy's, and for STRATEGY_AUTO its
-// members' (as auto.members lists them; validation fills the default in).
+// members' (as auto.members lists them; validation fills the default in) and,
+// for the portfolio chooser, its criterion's (roi's, or mi's without state
+// bounds).
 std::vector<const plan::StrategyInfo*> StrategiesInUse(const v1::SessionConfig& config);
 
 }  // namespace excite::service

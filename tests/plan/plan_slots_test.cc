@@ -139,5 +139,35 @@ TEST(PlanSlotsTest, AFreedSlotGoesToAWaiter) {
   EXPECT_TRUE(got.load());
 }
 
+// A helper thread of a plan takes a slot only if one is free now, and never a
+// second one on a thread that holds one.
+TEST(PlanSlotsTest, TryAcquireTakesOnlyAFreeSlot) {
+  SetConcurrentPlans(2);
+  PlanSlot caller;
+  ASSERT_TRUE(caller.Acquire(std::nullopt, nullptr).ok());
+  PlanSlot again;
+  EXPECT_FALSE(again.TryAcquire());  // this thread holds one
+  std::atomic<bool> first{false}, second{true};
+  std::thread helper([&] {
+    PlanSlot slot;
+    first = slot.TryAcquire();  // the second of two
+    std::thread another([&] {
+      PlanSlot none;
+      second = none.TryAcquire();  // none left: no wait
+    });
+    another.join();
+  });
+  helper.join();
+  EXPECT_TRUE(first.load());
+  EXPECT_FALSE(second.load());
+  // The helper's slot was given back.
+  std::thread later([] {
+    PlanSlot slot;
+    EXPECT_TRUE(slot.TryAcquire());
+  });
+  later.join();
+  SetConcurrentPlans(1);
+}
+
 }  // namespace
 }  // namespace excite::plan

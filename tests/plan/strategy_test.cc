@@ -41,7 +41,7 @@ TEST(StrategyTableTest, EveryRowIsCompleteForItsMethod) {
   EXPECT_TRUE(InfoOf(Strategy::kMi).needs_joint_covariances);
   EXPECT_TRUE(InfoOf(Strategy::kRoi).needs_joint_covariances);
   EXPECT_TRUE(InfoOf(Strategy::kOptimistic).optimistic_dynamics);
-  EXPECT_EQ(InfoOf(Strategy::kAuto).method, PlanMethod::kBandit);
+  EXPECT_EQ(InfoOf(Strategy::kAuto).method, PlanMethod::kMembers);
   EXPECT_FALSE(InfoOf(Strategy::kAuto).apply_all);
   // auto's members: the receding-horizon trajectory strategies and the signals.
   for (Strategy s : {Strategy::kPa, Strategy::kSep, Strategy::kAuto}) {

@@ -133,6 +133,13 @@ def test_config_from_textproto_file_string_and_errors(client):
                                   "auto": {"members": ["rec", "RANDOM"]}})
     assert list(auto.auto.members) == [excite.config_pb.STRATEGY_REC,
                                        excite.config_pb.STRATEGY_RANDOM]
+    # auto's chooser too, in a dict and in textproto.
+    portfolio = excite.config_pb.AutoConfig.CHOOSER_PORTFOLIO
+    assert excite.session_config({"auto": {"chooser": "Portfolio"}}).auto.chooser == (
+        portfolio)
+    assert excite.session_config("auto { chooser: portfolio }").auto.chooser == portfolio
+    with pytest.raises(ValueError, match="'best' is not one of bandit, portfolio"):
+        excite.session_config({"auto": {"chooser": "best"}})
     with pytest.raises(ValueError, match="'foo' is not one of rec, pa, greedy"):
         excite.session_config({"strategy": "foo"})
     # A path that is not there is said to be missing, not parsed as textproto.

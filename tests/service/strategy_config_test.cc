@@ -246,18 +246,18 @@ TEST(StrategyConfigTest, AutoFillsItsMembersAndTheirDefaults) {
   EXPECT_EQ(c.sparse().above_samples(), 0);
   plan::PlanOptions o = PlanOptionsFromConfig(c);
   EXPECT_EQ(o.strategy, plan::Strategy::kAuto);
-  EXPECT_EQ(o.auto_members,
-            (std::vector<plan::Strategy>{plan::Strategy::kRec, plan::Strategy::kOptimistic,
-                                         plan::Strategy::kRoi, plan::Strategy::kRandom}));
+  EXPECT_EQ(o.auto_members, (std::vector<plan::Strategy>{
+                                plan::Strategy::kRec, plan::Strategy::kOptimistic,
+                                plan::Strategy::kRoi, plan::Strategy::kRandom}));
   EXPECT_TRUE(o.Validate(2, 1).ok());
 
   // Without state bounds roi is left out, and the GP may turn sparse.
   c = Config(v1::STRATEGY_AUTO);
   c.clear_state_bounds();
   ASSERT_TRUE(ValidateSessionConfig(&c).ok());
-  EXPECT_THAT(c.auto_().members(), ::testing::ElementsAre(v1::STRATEGY_REC,
-                                                          v1::STRATEGY_OPTIMISTIC,
-                                                          v1::STRATEGY_RANDOM));
+  EXPECT_THAT(c.auto_().members(),
+              ::testing::ElementsAre(v1::STRATEGY_REC, v1::STRATEGY_OPTIMISTIC,
+                                     v1::STRATEGY_RANDOM));
   EXPECT_GT(c.sparse().above_samples(), 0);
 
   // Named members are kept as named.
@@ -269,6 +269,46 @@ TEST(StrategyConfigTest, AutoFillsItsMembersAndTheirDefaults) {
               ::testing::ElementsAre(v1::STRATEGY_MI, v1::STRATEGY_PRBS));
   EXPECT_EQ(c.signal().prbs_min_hold(), 5);
   EXPECT_FALSE(c.has_optimistic());
+}
+
+TEST(StrategyConfigTest, AutoPortfolioFillsItsMembersAndKeepsTheGpExact) {
+  v1::SessionConfig c = Config(v1::STRATEGY_AUTO);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.auto_().chooser(), v1::AutoConfig::CHOOSER_BANDIT);  // filled in
+
+  c = Config(v1::STRATEGY_AUTO);
+  c.mutable_auto_()->set_chooser(v1::AutoConfig::CHOOSER_PORTFOLIO);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_THAT(
+      c.auto_().members(),
+      ::testing::ElementsAre(v1::STRATEGY_REC, v1::STRATEGY_MI, v1::STRATEGY_RANDOM));
+  // Its criterion is roi's objective: roi's block is filled in, the GP stays exact.
+  EXPECT_EQ(c.roi().reference_points(), 256);
+  EXPECT_EQ(c.sparse().above_samples(), 0);
+  plan::PlanOptions o = PlanOptionsFromConfig(c);
+  EXPECT_EQ(o.auto_chooser, plan::AutoChooser::kPortfolio);
+  EXPECT_EQ(o.auto_members,
+            (std::vector<plan::Strategy>{plan::Strategy::kRec, plan::Strategy::kMi,
+                                         plan::Strategy::kRandom}));
+  EXPECT_TRUE(o.Validate(2, 1).ok());
+
+  // Named members without a joint-covariance need still keep the GP exact, for the
+  // criterion (mi's without state bounds).
+  c = Config(v1::STRATEGY_AUTO);
+  c.clear_state_bounds();
+  c.mutable_auto_()->set_chooser(v1::AutoConfig::CHOOSER_PORTFOLIO);
+  c.mutable_auto_()->add_members(v1::STRATEGY_REC);
+  c.mutable_auto_()->add_members(v1::STRATEGY_PRBS);
+  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.sparse().above_samples(), 0);
+  EXPECT_FALSE(c.has_roi());
+  c.mutable_sparse()->set_above_samples(500);
+  ExpectInvalid(c, "config.sparse.above_samples");
+
+  c = Config(v1::STRATEGY_AUTO);
+  c.mutable_auto_()->set_chooser(static_cast<v1::AutoConfig::Chooser>(7));
+  ExpectInvalid(c, "config.auto.chooser",
+                "unknown value 7; valid: CHOOSER_BANDIT, CHOOSER_PORTFOLIO");
 }
 
 TEST(StrategyConfigTest, AutoRefusesMembersItCannotUse) {

@@ -36,8 +36,10 @@ Metadata = Optional[Tuple[Tuple[str, str], ...]]
 SESSION_HEADER = "x-excite-session"
 AUTH_TOKEN_ENV = "EXCITE_AUTH_TOKEN"
 
-_ENUM_PREFIX = {"strategy": "STRATEGY_", "target": "TARGET_"}
-_ENUM_TYPE: Dict[str, Any] = {"strategy": config_pb.Strategy, "target": config_pb.Target}
+_ENUM_PREFIX = {"strategy": "STRATEGY_", "target": "TARGET_", "chooser": "CHOOSER_"}
+_ENUM_TYPE: Dict[str, Any] = {"strategy": config_pb.Strategy, "target": config_pb.Target,
+                              "chooser": config_pb.AutoConfig.Chooser}
+_TOP_LEVEL_ENUMS = ("strategy", "target")
 _INTERVAL_FIELDS = ("input_bounds", "state_bounds")
 _SERVING_STATUS = {0: "UNKNOWN", 1: "SERVING", 2: "NOT_SERVING", 3: "SERVICE_UNKNOWN"}
 
@@ -295,17 +297,20 @@ def _enum_name(key: str, value: Any) -> Any:
 
 def _friendly_dict(config: Mapping[str, Any]) -> dict:
     """Accepts "rec", "REC" or "STRATEGY_REC" for STRATEGY_REC (also in
-    auto.members), "delta" for TARGET_DELTA and [lo, hi] pairs for intervals, then
-    leaves the rest to json_format."""
+    auto.members), "delta" for TARGET_DELTA, "portfolio" for auto.chooser's
+    CHOOSER_PORTFOLIO and [lo, hi] pairs for intervals, then leaves the rest to
+    json_format."""
     result = dict(config)
-    for key in _ENUM_PREFIX:
+    for key in _TOP_LEVEL_ENUMS:
         if key in result:
             result[key] = _enum_name(key, result[key])
-    members = (result.get("auto") or {}).get("members") if isinstance(
-        result.get("auto"), Mapping) else None
-    if members is not None:
-        result["auto"] = dict(result["auto"], members=[
-            _enum_name("strategy", m) for m in members])
+    if isinstance(result.get("auto"), Mapping):
+        auto = dict(result["auto"])
+        if auto.get("members") is not None:
+            auto["members"] = [_enum_name("strategy", m) for m in auto["members"]]
+        if "chooser" in auto:
+            auto["chooser"] = _enum_name("chooser", auto["chooser"])
+        result["auto"] = auto
     for key in _INTERVAL_FIELDS:
         if key in result:
             result[key] = [
@@ -319,7 +324,7 @@ def _friendly_dict(config: Mapping[str, Any]) -> dict:
 # or list of values.
 _TEXT_ENUM = re.compile(
     r'("(?:[^"\\\n]|\\.)*"|\'(?:[^\'\\\n]|\\.)*\'|#[^\n]*)'
-    r"|\b(strategy|target|members)(\s*:\s*)(\[[^\]]*\]|[A-Za-z_][A-Za-z0-9_]*)")
+    r"|\b(strategy|target|members|chooser)(\s*:\s*)(\[[^\]]*\]|[A-Za-z_][A-Za-z0-9_]*)")
 
 
 def _with_enum_names(text: str) -> str:
