@@ -27,16 +27,17 @@ class PlanSlot {
   PlanSlot(const PlanSlot&) = delete;
   PlanSlot& operator=(const PlanSlot&) = delete;
 
-  // Waits for a free slot. DEADLINE_EXCEEDED if none came free before `deadline`
-  // (a free slot is taken also after it), CANCELLED once `cancelled()` is true
-  // (checked every 20 ms), without a slot then. On a thread
-  // that holds a slot already (a plan inside a plan, as auto's members), OK at once
-  // and nothing more is taken.
+  // Waits for a free slot, served in arrival order. DEADLINE_EXCEEDED if none came free
+  // before `deadline` (a free slot is taken also after it), CANCELLED once `cancelled()`
+  // is true (checked every 20 ms), without a slot then. On a thread that holds a slot
+  // already (a plan inside a plan, as auto's members), OK at once and nothing more is
+  // taken.
   absl::Status Acquire(std::optional<std::chrono::steady_clock::time_point> deadline,
                        const std::function<bool()>& cancelled);
-  // Takes a slot only if one is free now (a helper thread of a plan that holds a
-  // slot already: the work it would take over is otherwise done by its caller).
-  // False, without a slot, on a thread that holds one.
+  // Takes a slot only if one is free now and no plan waits for one (a helper
+  // thread of a plan that holds a slot already: the work it would take over is
+  // otherwise done by its caller). False, without a slot, on a thread that holds
+  // one.
   bool TryAcquire();
 
  private:

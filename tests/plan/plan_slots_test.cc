@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <memory>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -167,6 +168,38 @@ TEST(PlanSlotsTest, TryAcquireTakesOnlyAFreeSlot) {
   });
   later.join();
   SetConcurrentPlans(1);
+}
+
+// Waiters get slots in the order they came; one that gives up leaves the queue.
+TEST(PlanSlotsTest, WaitersAreServedInArrivalOrder) {
+  SetConcurrentPlans(1);
+  auto held = std::make_unique<PlanSlot>();
+  ASSERT_TRUE(held->Acquire(std::nullopt, nullptr).ok());
+  std::mutex mu;
+  std::vector<int> order;
+  std::vector<std::thread> waiters;
+  // Waiter 2 gives up before the slot comes free; the ones after it still get it.
+  for (int w = 0; w < 6; ++w) {
+    waiters.emplace_back([&, w] {
+      PlanSlot slot;
+      const auto deadline = Clock::now() + (w == 2 ? std::chrono::milliseconds(100)
+                                                   : std::chrono::seconds(20));
+      const absl::Status s = slot.Acquire(deadline, nullptr);
+      if (w == 2) {
+        EXPECT_TRUE(absl::IsDeadlineExceeded(s)) << s;
+        return;
+      }
+      ASSERT_TRUE(s.ok()) << s;
+      std::lock_guard<std::mutex> lock(mu);
+      order.push_back(w);
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));  // arrival order
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));  // waiter 2 has left
+  held.reset();
+  for (std::thread& t : waiters) t.join();
+  EXPECT_EQ(order, (std::vector<int>{0, 1, 3, 4, 5}));
 }
 
 }  // namespace
