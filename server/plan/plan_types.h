@@ -64,7 +64,7 @@ struct PlanOptions {
   // kAuto: the member strategies it chooses among (each CanBeAutoMember, no
   // repeats); empty: DefaultAutoMembers.
   std::vector<Strategy> auto_members;
-  AutoChooser auto_chooser = AutoChooser::kBandit;
+  AutoChooser auto_chooser = AutoChooser::kPortfolio;
   // auto_members, or DefaultAutoMembers for these options' state bounds and chooser.
   std::vector<Strategy> AutoMembers() const;
   // State constraints on the planned mean trajectory of every model-based

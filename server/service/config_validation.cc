@@ -149,14 +149,14 @@ absl::Status ValidateKernel(absl::string_view path, const v1::SessionConfig& con
   return absl::OkStatus();  // restarts, max_iterations: config_rules.cc
 }
 
-// AutoConfig: a known chooser (UNSPECIFIED -> BANDIT); members each once, each
+// AutoConfig: a known chooser (UNSPECIFIED -> PORTFOLIO); members each once, each
 // one that can be a member; the chooser's default (plan::DefaultAutoMembers)
 // filled in for STRATEGY_AUTO when none is named.
 absl::Status ValidateAuto(absl::string_view path, v1::SessionConfig* config) {
   if (config->strategy() != v1::STRATEGY_AUTO) return absl::OkStatus();
   v1::AutoConfig* auto_config = config->mutable_auto_();
   if (auto_config->chooser() == v1::AutoConfig::CHOOSER_UNSPECIFIED) {
-    auto_config->set_chooser(v1::AutoConfig::CHOOSER_BANDIT);
+    auto_config->set_chooser(v1::AutoConfig::CHOOSER_PORTFOLIO);
   }
   if (!v1::AutoConfig::Chooser_IsValid(auto_config->chooser())) {
     return Invalid(

@@ -61,7 +61,7 @@ inline constexpr int kMaxSparseFitSamples = 100000;
 //     state_dim of them; a fixed horizon (greedy: 1) overrides a valid one;
 //   refit.growth finite in [0, 10] (unset: 0.05);
 //   optimistic.beta in (0, 10] when set (filled in, 1, for optimistic);
-//   auto.chooser for STRATEGY_AUTO: UNSPECIFIED -> BANDIT; auto.members: each
+//   auto.chooser for STRATEGY_AUTO: UNSPECIFIED -> PORTFOLIO; auto.members: each
 //     once, none of pa, sep, auto (empty: the chooser's
 //     plan::DefaultAutoMembers filled in); the members' needs (state bounds,
 //     joint covariances) and config defaults apply as for the strategy alone,

@@ -53,8 +53,8 @@ v1::Strategy WireStrategy(plan::Strategy strategy) {
 }
 
 plan::AutoChooser EngineChooser(v1::AutoConfig::Chooser chooser) {
-  return chooser == v1::AutoConfig::CHOOSER_PORTFOLIO ? plan::AutoChooser::kPortfolio
-                                                      : plan::AutoChooser::kBandit;
+  return chooser == v1::AutoConfig::CHOOSER_BANDIT ? plan::AutoChooser::kBandit
+                                                   : plan::AutoChooser::kPortfolio;
 }
 
 std::vector<const plan::StrategyInfo*> StrategiesInUse(const v1::SessionConfig& config) {
@@ -65,7 +65,7 @@ std::vector<const plan::StrategyInfo*> StrategiesInUse(const v1::SessionConfig& 
     }
     // The portfolio judges plans with roi's objective (mi's without state bounds),
     // so it has their needs and reads roi's block.
-    if (config.auto_().chooser() == v1::AutoConfig::CHOOSER_PORTFOLIO) {
+    if (EngineChooser(config.auto_().chooser()) == plan::AutoChooser::kPortfolio) {
       const bool bounds = config.state_bounds_size() == config.state_dim();
       used.push_back(&plan::InfoOf(bounds ? plan::Strategy::kRoi : plan::Strategy::kMi));
     }

@@ -27,7 +27,7 @@ const plan::StrategyInfo& EngineStrategy(v1::Strategy strategy);
 // The wire value of an engine strategy (plan::Strategy::kRec -> v1::STRATEGY_REC).
 v1::Strategy WireStrategy(plan::Strategy strategy);
 
-// auto's engine chooser (UNSPECIFIED and unknown values: the bandit).
+// auto's engine chooser (UNSPECIFIED and unknown values: the portfolio).
 plan::AutoChooser EngineChooser(v1::AutoConfig::Chooser chooser);
 
 // The engine rows a config plans with: its strategy's, and for STRATEGY_AUTO its

@@ -70,6 +70,7 @@ TEST(SurpriseScaleTest, RewardsAreScaleFreeAndFollowTheClosedForm) {
 PlanOptions AutoOptions(std::vector<Strategy> members) {
   PlanOptions o;
   o.strategy = Strategy::kAuto;
+  o.auto_chooser = AutoChooser::kBandit;
   o.horizon = 3;
   o.max_iterations = 10;
   o.restarts = 0;
@@ -141,7 +142,7 @@ TEST(AutoPlannerTest, TheSameSeedDrawsTheSameMembers) {
   EXPECT_EQ(Explore(&a, 15, 1, &RandomSurprises), Explore(&b, 15, 1, &RandomSurprises));
 }
 
-TEST(AutoPlannerTest, DefaultMembersNeedStateBoundsForRoi) {
+TEST(AutoPlannerTest, TheBanditsDefaultMembersNeedStateBoundsForRoi) {
   PlanOptions o = AutoOptions({});
   EXPECT_EQ(
       AutoPlanner(o).members(),

@@ -233,8 +233,14 @@ TEST(StrategyConfigTest, Optimistic) {
   ExpectInvalid(c, "config.optimistic.beta");
 }
 
+// The bandit chooser: its members and their blocks' defaults.
 TEST(StrategyConfigTest, AutoFillsItsMembersAndTheirDefaults) {
-  v1::SessionConfig c = Config(v1::STRATEGY_AUTO);
+  const auto bandit = [] {
+    v1::SessionConfig c = Config(v1::STRATEGY_AUTO);
+    c.mutable_auto_()->set_chooser(v1::AutoConfig::CHOOSER_BANDIT);
+    return c;
+  };
+  v1::SessionConfig c = bandit();
   ASSERT_TRUE(ValidateSessionConfig(&c).ok());
   EXPECT_THAT(c.auto_().members(),
               ::testing::ElementsAre(v1::STRATEGY_REC, v1::STRATEGY_OPTIMISTIC,
@@ -246,13 +252,14 @@ TEST(StrategyConfigTest, AutoFillsItsMembersAndTheirDefaults) {
   EXPECT_EQ(c.sparse().above_samples(), 0);
   plan::PlanOptions o = PlanOptionsFromConfig(c);
   EXPECT_EQ(o.strategy, plan::Strategy::kAuto);
+  EXPECT_EQ(o.auto_chooser, plan::AutoChooser::kBandit);
   EXPECT_EQ(o.auto_members, (std::vector<plan::Strategy>{
                                 plan::Strategy::kRec, plan::Strategy::kOptimistic,
                                 plan::Strategy::kRoi, plan::Strategy::kRandom}));
   EXPECT_TRUE(o.Validate(2, 1).ok());
 
   // Without state bounds roi is left out, and the GP may turn sparse.
-  c = Config(v1::STRATEGY_AUTO);
+  c = bandit();
   c.clear_state_bounds();
   ASSERT_TRUE(ValidateSessionConfig(&c).ok());
   EXPECT_THAT(c.auto_().members(),
@@ -261,7 +268,7 @@ TEST(StrategyConfigTest, AutoFillsItsMembersAndTheirDefaults) {
   EXPECT_GT(c.sparse().above_samples(), 0);
 
   // Named members are kept as named.
-  c = Config(v1::STRATEGY_AUTO);
+  c = bandit();
   c.mutable_auto_()->add_members(v1::STRATEGY_MI);
   c.mutable_auto_()->add_members(v1::STRATEGY_PRBS);
   ASSERT_TRUE(ValidateSessionConfig(&c).ok());
@@ -272,13 +279,9 @@ TEST(StrategyConfigTest, AutoFillsItsMembersAndTheirDefaults) {
 }
 
 TEST(StrategyConfigTest, AutoPortfolioFillsItsMembersAndKeepsTheGpExact) {
-  v1::SessionConfig c = Config(v1::STRATEGY_AUTO);
+  v1::SessionConfig c = Config(v1::STRATEGY_AUTO);  // the default chooser
   ASSERT_TRUE(ValidateSessionConfig(&c).ok());
-  EXPECT_EQ(c.auto_().chooser(), v1::AutoConfig::CHOOSER_BANDIT);  // filled in
-
-  c = Config(v1::STRATEGY_AUTO);
-  c.mutable_auto_()->set_chooser(v1::AutoConfig::CHOOSER_PORTFOLIO);
-  ASSERT_TRUE(ValidateSessionConfig(&c).ok());
+  EXPECT_EQ(c.auto_().chooser(), v1::AutoConfig::CHOOSER_PORTFOLIO);  // filled in
   EXPECT_THAT(
       c.auto_().members(),
       ::testing::ElementsAre(v1::STRATEGY_REC, v1::STRATEGY_MI, v1::STRATEGY_RANDOM));
