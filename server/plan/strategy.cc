@@ -227,7 +227,7 @@ bool CanBeAutoMember(Strategy strategy) {
 
 std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds, AutoChooser chooser) {
   if (chooser == AutoChooser::kPortfolio) {
-    return {Strategy::kRec, Strategy::kMi, Strategy::kRandom};
+    return {Strategy::kRec, Strategy::kMi};
   }
   std::vector<Strategy> members = {Strategy::kRec, Strategy::kOptimistic};
   if (has_state_bounds) members.push_back(Strategy::kRoi);

@@ -106,8 +106,9 @@ enum class AutoChooser { kBandit, kPortfolio };
 
 // auto's members when the config names none. The bandit: rec, optimistic, roi
 // (only with state bounds, which it needs) and random, the one member that does
-// not use the model. The portfolio: rec, mi and random, the members that plan in
-// about rec's time.
+// not use the model. The portfolio: rec and mi, which plan in about rec's time
+// (docs/bench_paper/auto-2026-12-07.md: with random as a third member it learned
+// less on the five paper systems).
 std::vector<Strategy> DefaultAutoMembers(bool has_state_bounds, AutoChooser chooser);
 // The index of the first of `members` that auto cannot take: one that cannot be a
 // member (*repeated = false) or one named before (*repeated = true); -1 if none.

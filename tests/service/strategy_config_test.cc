@@ -282,17 +282,15 @@ TEST(StrategyConfigTest, AutoPortfolioFillsItsMembersAndKeepsTheGpExact) {
   v1::SessionConfig c = Config(v1::STRATEGY_AUTO);  // the default chooser
   ASSERT_TRUE(ValidateSessionConfig(&c).ok());
   EXPECT_EQ(c.auto_().chooser(), v1::AutoConfig::CHOOSER_PORTFOLIO);  // filled in
-  EXPECT_THAT(
-      c.auto_().members(),
-      ::testing::ElementsAre(v1::STRATEGY_REC, v1::STRATEGY_MI, v1::STRATEGY_RANDOM));
+  EXPECT_THAT(c.auto_().members(),
+              ::testing::ElementsAre(v1::STRATEGY_REC, v1::STRATEGY_MI));
   // Its criterion is roi's objective: roi's block is filled in, the GP stays exact.
   EXPECT_EQ(c.roi().reference_points(), 256);
   EXPECT_EQ(c.sparse().above_samples(), 0);
   plan::PlanOptions o = PlanOptionsFromConfig(c);
   EXPECT_EQ(o.auto_chooser, plan::AutoChooser::kPortfolio);
   EXPECT_EQ(o.auto_members,
-            (std::vector<plan::Strategy>{plan::Strategy::kRec, plan::Strategy::kMi,
-                                         plan::Strategy::kRandom}));
+            (std::vector<plan::Strategy>{plan::Strategy::kRec, plan::Strategy::kMi}));
   EXPECT_TRUE(o.Validate(2, 1).ok());
 
   // Named members without a joint-covariance need still keep the GP exact, for the
