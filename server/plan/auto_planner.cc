@@ -117,6 +117,7 @@ absl::StatusOr<Plan> AutoPlanner::PlanByPortfolio(const gp::DynamicsPredictor& m
       PlanEveryMember(planners_, model, x0, time_index, limits);
   int best = -1;
   double best_score = 0.0;
+  Rollout best_rollout;  // the chosen plan's mean trajectory, scored once
   absl::Status first_error;
   for (size_t k = 0; k < plans.size(); ++k) {
     if (!plans[k].plan.ok()) {
@@ -126,10 +127,12 @@ absl::StatusOr<Plan> AutoPlanner::PlanByPortfolio(const gp::DynamicsPredictor& m
       if (first_error.ok()) first_error = plans[k].plan.status();
       continue;
     }
-    const double score = criterion->Score(RollOut(model, x0, plans[k].plan->inputs));
+    Rollout rollout = RollOut(model, x0, plans[k].plan->inputs);
+    const double score = criterion->Score(rollout);
     if (std::isfinite(score) && (best < 0 || score > best_score)) {
       best = static_cast<int>(k);
       best_score = score;
+      best_rollout = std::move(rollout);
     }
   }
   if (best < 0) {
@@ -139,7 +142,10 @@ absl::StatusOr<Plan> AutoPlanner::PlanByPortfolio(const gp::DynamicsPredictor& m
                             : first_error;
   }
   MemberPlan& chosen = plans[static_cast<size_t>(best)];
-  if (absl::Status s = WithMeanTrajectory(model, x0, &*chosen.plan); !s.ok()) return s;
+  if (chosen.plan->states.rows() == 0) {  // a signal: report its scored rollout
+    chosen.plan->states = std::move(best_rollout.states);
+    chosen.plan->variances = std::move(best_rollout.variances);
+  }
   *summary = chosen.summary;
   summary->planned_by = members_[static_cast<size_t>(best)];
   return *std::move(chosen.plan);
