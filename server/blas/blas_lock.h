@@ -11,9 +11,8 @@ namespace excite::blas {
 // thread-safe. Debian's serial OpenBLAS is built without USE_LOCKING: two threads
 // inside it at once share its buffer pool, and one gets wrong numbers (2 wrong
 // Cholesky factors in 6,000 from two threads on this machine; 0 with BLIS or the
-// reference BLAS). The GP's LAPACK calls take BlasLock; an Ipopt solve, whose
-// MUMPS calls the same BLAS, holds BlasMutex() outside its model callbacks
-// (plan/ipopt_lock.h).
+// reference BLAS). The GP's LAPACK calls take BlasLock; so do Ipopt's calls into
+// MUMPS and its level-2/3 BLAS and LAPACK calls (plan/ipopt_library_calls.h).
 
 // True when the BLAS loaded is an OpenBLAS (any build): its calls must not
 // overlap. Decided once per process.

@@ -5,7 +5,12 @@
 #include <IpUtils.hpp>
 #include <chrono>
 #include <exception>
+#include <mutex>
+#include <optional>
 #include <sstream>
+
+#include "server/blas/blas_lock.h"
+#include "server/plan/ipopt_library_calls.h"
 
 // Ipopt 3.11 times its internal tasks with CpuTime() and SysTime(), each a
 // getrusage system call, expensive on these virtual machines, also when no timing
@@ -31,7 +36,14 @@ IpoptOutcome SolveTnlp(const Ipopt::SmartPtr<Ipopt::TNLP>& nlp,
                        const IpoptSettings& settings) {
   IpoptOutcome outcome;
   std::ostringstream captured;
-  TimedIpoptLock lock;
+  // Serial only if the per-call wrappers are not in effect (see
+  // IpoptLibraryCallsAreWrapped()).
+  std::unique_lock<std::recursive_mutex> whole_solve;
+  std::optional<blas::BlasLock> whole_solve_blas;
+  if (!IpoptLibraryCallsAreWrapped()) {
+    whole_solve = std::unique_lock<std::recursive_mutex>(MumpsMutex());
+    whole_solve_blas.emplace();
+  }
   try {
     Ipopt::SmartPtr<Ipopt::IpoptApplication> app = new Ipopt::IpoptApplication();
     Ipopt::SmartPtr<Ipopt::OptionsList> options = app->Options();

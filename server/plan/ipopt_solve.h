@@ -6,8 +6,6 @@
 #include <utility>
 #include <vector>
 
-#include "server/plan/ipopt_lock.h"
-
 namespace excite::plan {
 
 // Options of one Ipopt solve. Everything is passed in code: no ipopt.opt is read,
@@ -37,8 +35,9 @@ struct IpoptOutcome {
 };
 
 // Creates an IpoptApplication, sets `settings` (hessian_approximation =
-// limited-memory), solves `nlp` and destroys the application, all under
-// IpoptMutex(). Never throws: exceptions become NonIpopt_Exception_Thrown.
+// limited-memory), solves `nlp` and destroys the application. Solves on other
+// threads run at the same time (their MUMPS and BLAS calls take turns:
+// ipopt_library_calls.h). Never throws: exceptions become NonIpopt_Exception_Thrown.
 IpoptOutcome SolveTnlp(const Ipopt::SmartPtr<Ipopt::TNLP>& nlp,
                        const IpoptSettings& settings);
 

@@ -5,7 +5,6 @@
 #include <utility>
 
 #include "server/plan/entropy_objective.h"  // kVarianceFloor
-#include "server/plan/ipopt_lock.h"
 
 namespace excite::plan {
 namespace {
@@ -148,8 +147,6 @@ bool MultipleShootingNlp::Evaluate(const Ipopt::Number* w_ptr, bool new_x) {
   cache_valid_ = true;
   cache_finite_ = false;
   ++evaluations_;
-  // Other sessions' BLAS calls may run while the model works.
-  const IpoptCallbackUnlock unlocked;
 
   const int zd = dx_ + du_;
   z_.resize(horizon_, zd);

@@ -11,8 +11,9 @@ namespace excite::plan {
 
 // How many model-based plans run at once in the process (a plan holds a slot from
 // its first rollout to its end). Plans beyond the cores would only share them:
-// a thread preempted while it holds Ipopt's lock (ipopt_lock.h) stalls every other
-// solve, so more running plans than cores plan fewer per second
+// a thread preempted while it holds the MUMPS or BLAS lock
+// (ipopt_library_calls.h) stalls every other solve, so more running plans than
+// cores plan fewer per second
 // (docs/parallel-planning.md).
 
 // At least 1; 1 until set. Set once at start (excite-server's --planner_workers).

@@ -6,7 +6,6 @@
 #include <limits>
 #include <utility>
 
-#include "server/plan/ipopt_lock.h"
 #include "server/plan/ipopt_solve.h"
 #include "server/plan/multiple_shooting_nlp.h"
 
@@ -151,7 +150,6 @@ ShootingResult SolveFromStarts(const gp::DynamicsPredictor& model,
       if (!stall.CheckDue()) return false;
       const Eigen::VectorXd w = nlp->last_point();
       if (w.size() != nlp->num_variables()) return false;
-      const IpoptCallbackUnlock unlocked;  // the rollout is model work
       Rollout r = roll_out(w);
       if (!r.valid) return false;
       const bool stalled =

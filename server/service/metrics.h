@@ -37,7 +37,7 @@ class BuildAndLockCollector;
 //   excite_store_write_seconds{op}                histogram (durable store writes)
 //   gauges registered with AddGauge, read at every scrape (sessions, samples,
 //   memory)
-//   process_*, excite_build_info, excite_ipopt_lock_*   (process_metrics.h)
+//   process_*, excite_build_info, excite_mumps_lock_*   (process_metrics.h)
 // Thread-safe.
 class Metrics final : public session::MetricsSink {
  public:

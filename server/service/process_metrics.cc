@@ -14,7 +14,7 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/string_view.h"
 #include "common/build_info.h"
-#include "server/plan/ipopt_lock.h"
+#include "server/plan/ipopt_library_calls.h"
 
 namespace excite::service {
 namespace {
@@ -142,15 +142,15 @@ std::vector<prometheus::MetricFamily> BuildAndLockCollector::Collect() const {
   metric.gauge.value = 1;
   families.push_back(std::move(info));
 
-  const plan::IpoptLockTotals lock = plan::ReadIpoptLockTotals();
-  Add(&families, "excite_ipopt_lock_acquisitions_total",
-      "Ipopt solves that took the process-wide Ipopt lock (one per solve).",
+  const plan::MumpsLockTotals lock = plan::ReadMumpsLockTotals();
+  Add(&families, "excite_mumps_lock_acquisitions_total",
+      "Calls of Ipopt's solves into MUMPS, each under the process-wide MUMPS lock.",
       MetricType::Counter, static_cast<double>(lock.acquisitions));
-  Add(&families, "excite_ipopt_lock_wait_seconds_total",
-      "Time solves waited for the process-wide Ipopt lock, summed over solves.",
+  Add(&families, "excite_mumps_lock_wait_seconds_total",
+      "Time MUMPS calls waited for the process-wide MUMPS lock, summed over calls.",
       MetricType::Counter, lock.wait_seconds);
-  Add(&families, "excite_ipopt_lock_held_seconds_total",
-      "Time the process-wide Ipopt lock was held; its rate is the share of one core "
+  Add(&families, "excite_mumps_lock_held_seconds_total",
+      "Time the process-wide MUMPS lock was held; its rate is the share of one core "
       "that planning is serialised on.",
       MetricType::Counter, lock.held_seconds);
   return families;

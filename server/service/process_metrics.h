@@ -20,7 +20,7 @@ class ProcessCollector final : public prometheus::Collectable {
 };
 
 // excite_build_info{version,commit} 1, and the time spent waiting for and holding
-// the process-wide Ipopt lock (excite_ipopt_lock_*; see plan::IpoptLockTotals).
+// the process-wide MUMPS lock (excite_mumps_lock_*; see plan::MumpsLockTotals).
 class BuildAndLockCollector final : public prometheus::Collectable {
  public:
   std::vector<prometheus::MetricFamily> Collect() const override;

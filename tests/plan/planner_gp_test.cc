@@ -42,9 +42,9 @@ TEST(PlannerGpTest, IpoptDerivativeCheckerOnTheGp) {
       << log;
 }
 
-// Plans on four threads, two at once (the plan slots of a 2-core server), whose model
-// work runs outside Ipopt's lock and interleaves with the other solve's Ipopt steps, are
-// the plans each makes alone, to the bit: for the strategies that solve with Ipopt along
+// Plans on four threads, two at once (the plan slots of a 2-core server), whose Ipopt
+// steps and model work run in parallel and whose MUMPS calls take turns, are the
+// plans each makes alone, to the bit: for the strategies that solve with Ipopt along
 // a trajectory (rec, pa, optimistic).
 TEST(PlannerGpTest, ConcurrentPlansAreThePlansMadeAlone) {
   const gp::DynamicsModel first = FittedModel(150);

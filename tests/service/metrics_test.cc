@@ -176,7 +176,7 @@ TEST_F(MetricsTest, CountsRpcsSessionsAndSamples) {
               HasSubstr("excite_store_write_seconds_count{op=\"insert_samples\"} 1\n"));
   EXPECT_THAT(reply,
               HasSubstr("excite_store_write_seconds_count{op=\"save_model\"} 1\n"));
-  // Served beside them: the process, the build and the Ipopt lock (which a random
+  // Served beside them: the process, the build and the MUMPS lock (which a random
   // plan does not take).
   EXPECT_THAT(reply, HasSubstr("# TYPE process_cpu_seconds_total counter\n"));
   EXPECT_THAT(reply, HasSubstr("# TYPE process_resident_memory_bytes gauge\n"));
@@ -186,9 +186,9 @@ TEST_F(MetricsTest, CountsRpcsSessionsAndSamples) {
       ::testing::ContainsRegex(
           "excite_build_info\\{commit=\"([0-9a-f]{12}(-dirty)?|unknown)\",version=\"" +
           std::string(EXCITE_PROJECT_VERSION) + "\"\\} 1\n"));
-  EXPECT_THAT(reply, HasSubstr("excite_ipopt_lock_acquisitions_total 0\n"));
-  EXPECT_THAT(reply, HasSubstr("# TYPE excite_ipopt_lock_wait_seconds_total counter\n"));
-  EXPECT_THAT(reply, HasSubstr("# TYPE excite_ipopt_lock_held_seconds_total counter\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_mumps_lock_acquisitions_total 0\n"));
+  EXPECT_THAT(reply, HasSubstr("# TYPE excite_mumps_lock_wait_seconds_total counter\n"));
+  EXPECT_THAT(reply, HasSubstr("# TYPE excite_mumps_lock_held_seconds_total counter\n"));
   EXPECT_THAT(HttpGet(port_, "/other"), HasSubstr(" 404 Not Found\r\n"));
   EXPECT_THAT(reply, Not(HasSubstr("UNKNOWN")));
 }

@@ -1,0 +1,45 @@
+#ifndef EXCITE_SERVER_PLAN_IPOPT_LIBRARY_CALLS_H_
+#define EXCITE_SERVER_PLAN_IPOPT_LIBRARY_CALLS_H_
+
+#include <cstdint>
+#include <mutex>
+
+namespace excite::plan {
+
+// How Ipopt solves share the process. Ipopt 3.11 is thread-safe as long as no
+// Ipopt object is shared between threads and its linear solver is thread-safe
+// (Ipopt's ChangeLog, 3.11.0, #167); MUMPS, the only linear solver of Debian's
+// Ipopt, is not (coin-or/Ipopt#733), nor is Debian's serial OpenBLAS
+// (blas/blas_lock.h). So solves run in parallel and only their calls into those
+// libraries take turns, call by call, as Ipopt 3.14 does for MUMPS inside:
+// ipopt_library_calls.cc defines dmumps_c and the BLAS and LAPACK routines that
+// libipopt and MUMPS call and that use OpenBLAS's shared buffers. The libraries
+// call them through their PLT, so the executable's definitions win over the
+// libraries' own; each takes its lock (MumpsMutex() or the BLAS lock) and calls
+// the library's routine.
+
+// The lock around every MUMPS call. Recursive: SolveTnlp's fallback below holds
+// it around a whole solve.
+std::recursive_mutex& MumpsMutex();
+
+// True when this process's libipopt calls the wrappers above (their object is
+// linked into the executable and exported to the libraries, as in every excite
+// binary). When false, SolveTnlp holds MumpsMutex() and the BLAS lock around the
+// whole solve, callbacks included: serial, but never unsafe.
+bool IpoptLibraryCallsAreWrapped();
+
+// What MUMPS calls spent on MumpsMutex() since the process started: how many
+// calls, how long they waited for it and how long they held it. The held time per
+// second of wall time is the share of one core that the process's solves are
+// serialised on.
+struct MumpsLockTotals {
+  int64_t acquisitions = 0;
+  double wait_seconds = 0;
+  double held_seconds = 0;
+};
+// Thread-safe; the three values are read one after the other, not as one snapshot.
+MumpsLockTotals ReadMumpsLockTotals();
+
+}  // namespace excite::plan
+
+#endif  // EXCITE_SERVER_PLAN_IPOPT_LIBRARY_CALLS_H_
