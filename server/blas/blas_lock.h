@@ -18,9 +18,9 @@ namespace excite::blas {
 // overlap. Decided once per process.
 bool BlasNeedsSerialising();
 
-// The process's BLAS lock (whatever BlasNeedsSerialising() says). Recursive: a
-// thread that holds it through an Ipopt solve and calls the GP (from a callback
-// that does not release it) takes it again instead of deadlocking.
+// The process's BLAS lock (whatever BlasNeedsSerialising() says). Recursive: the
+// GP's BlasLock around a LAPACK call takes it again in that routine's wrapper
+// (plan/ipopt_library_calls.cc), and so does a whole-solve fallback's callback.
 std::recursive_mutex& BlasMutex();
 
 // Holds BlasMutex() for its lifetime if BlasNeedsSerialising(); a no-op otherwise.
