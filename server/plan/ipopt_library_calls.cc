@@ -3,28 +3,16 @@
 #include <dlfcn.h>
 
 #include <array>
-#include <atomic>
-#include <chrono>
 #include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <utility>
 
 #include "server/blas/blas_lock.h"
+#include "server/plan/mumps_copies.h"
 
 namespace excite::plan {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-std::atomic<int64_t> acquisitions{0};
-std::atomic<int64_t> wait_ns{0};
-std::atomic<int64_t> held_ns{0};
-
-int64_t NanosecondsSince(Clock::time_point start) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start)
-      .count();
-}
 
 // The library's own definition of `name`: the next one after the executable's.
 template <typename Function>
@@ -39,6 +27,16 @@ Function Next(const char* name) {
   return reinterpret_cast<Function>(found);
 }
 
+MumpsCopies& TheMumpsCopies() {
+  // Eight: loaded only as concurrent solves need them (at most the planner's
+  // slots); glibc allows 16 namespaces, and its static TLS ran out at the 12th
+  // copy in a test program.
+  constexpr int kMaxCopies = 8;
+  static MumpsCopies* const copies = new MumpsCopies(
+      Next<MumpsCopies::Entry>("dmumps_c"), &MumpsMutex(), kMaxCopies);
+  return *copies;
+}
+
 }  // namespace
 
 std::recursive_mutex& MumpsMutex() {
@@ -47,12 +45,12 @@ std::recursive_mutex& MumpsMutex() {
 }
 
 MumpsLockTotals ReadMumpsLockTotals() {
+  const MumpsCopies::Totals read = TheMumpsCopies().ReadTotals();
   MumpsLockTotals totals;
-  totals.acquisitions = acquisitions.load(std::memory_order_relaxed);
-  totals.wait_seconds =
-      static_cast<double>(wait_ns.load(std::memory_order_relaxed)) * 1e-9;
-  totals.held_seconds =
-      static_cast<double>(held_ns.load(std::memory_order_relaxed)) * 1e-9;
+  totals.acquisitions = read.calls;
+  totals.wait_seconds = read.wait_seconds;
+  totals.held_seconds = read.held_seconds;
+  totals.copies = read.copies;
   return totals;
 }
 
@@ -82,21 +80,9 @@ void dgetrs_(A, A, A, A, A, A, A, A, A, L);
 void dsyev_(A, A, A, A, A, A, A, A, A, L, L);
 void dorgqr_(A, A, A, A, A, A, A, A, A);
 
-void dmumps_c(A mumps) {
-  namespace plan = excite::plan;
-  static const auto real = plan::Next<void (*)(A)>("dmumps_c");
-  const auto asked = plan::Clock::now();
-  // Not the BLAS lock: MUMPS's own BLAS calls take it one by one (below), so
-  // other solves' BLAS calls need not wait for the whole MUMPS call.
-  const std::lock_guard<std::recursive_mutex> lock(plan::MumpsMutex());
-  const auto taken = plan::Clock::now();
-  plan::wait_ns.fetch_add(
-      std::chrono::duration_cast<std::chrono::nanoseconds>(taken - asked).count(),
-      std::memory_order_relaxed);
-  plan::acquisitions.fetch_add(1, std::memory_order_relaxed);
-  real(mumps);
-  plan::held_ns.fetch_add(plan::NanosecondsSince(taken), std::memory_order_relaxed);
-}
+// Not the BLAS lock: the process's own MUMPS takes it call by call in the BLAS
+// wrappers below, and the other copies call their own BLAS.
+void dmumps_c(A mumps) { excite::plan::TheMumpsCopies().Call(mumps); }
 
 #define EXCITE_UNDER_BLAS_LOCK(name, ...)                              \
   static const auto real = excite::plan::Next<decltype(&name)>(#name); \

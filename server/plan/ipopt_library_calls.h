@@ -15,11 +15,12 @@ namespace excite::plan {
 // ipopt_library_calls.cc defines dmumps_c and the BLAS and LAPACK routines that
 // libipopt and MUMPS call and that use OpenBLAS's shared buffers. The libraries
 // call them through their PLT, so the executable's definitions win over the
-// libraries' own; each takes its lock (MumpsMutex() or the BLAS lock) and calls
-// the library's routine.
+// libraries' own; each takes its lock (the BLAS lock, or the lock of the copy of
+// MUMPS the call's instance runs on: plan/mumps_copies.h) and calls the library's
+// routine.
 
-// The lock around every MUMPS call. Recursive: SolveTnlp's fallback below holds
-// it around a whole solve.
+// The lock around every call into the process's own copy of MUMPS. Recursive:
+// SolveTnlp's fallback below holds it around a whole solve.
 std::recursive_mutex& MumpsMutex();
 
 // True when this process's libipopt calls the wrappers above (their object is
@@ -28,14 +29,16 @@ std::recursive_mutex& MumpsMutex();
 // whole solve, callbacks included: serial, but never unsafe.
 bool IpoptLibraryCallsAreWrapped();
 
-// What MUMPS calls spent on MumpsMutex() since the process started: how many
-// calls, how long they waited for it and how long they held it. The held time per
-// second of wall time is the share of one core that the process's solves are
-// serialised on.
+// What MUMPS calls spent on their copies' locks since the process started: how
+// many calls, how long they waited for a lock and how long they held it, summed
+// over the copies, and how many copies are loaded. Held time per second of wall
+// time over copies is how many cores the process's solves spend in MUMPS; wait
+// time is what sharing a copy cost.
 struct MumpsLockTotals {
   int64_t acquisitions = 0;
   double wait_seconds = 0;
   double held_seconds = 0;
+  int copies = 0;
 };
 // Thread-safe; the three values are read one after the other, not as one snapshot.
 MumpsLockTotals ReadMumpsLockTotals();

@@ -144,15 +144,20 @@ std::vector<prometheus::MetricFamily> BuildAndLockCollector::Collect() const {
 
   const plan::MumpsLockTotals lock = plan::ReadMumpsLockTotals();
   Add(&families, "excite_mumps_lock_acquisitions_total",
-      "Calls of Ipopt's solves into MUMPS, each under the process-wide MUMPS lock.",
+      "Calls of Ipopt's solves into MUMPS, each under the lock of the copy of MUMPS "
+      "its instance runs on.",
       MetricType::Counter, static_cast<double>(lock.acquisitions));
   Add(&families, "excite_mumps_lock_wait_seconds_total",
-      "Time MUMPS calls waited for the process-wide MUMPS lock, summed over calls.",
+      "Time MUMPS calls waited for their copy's lock, summed over calls.",
       MetricType::Counter, lock.wait_seconds);
   Add(&families, "excite_mumps_lock_held_seconds_total",
-      "Time the process-wide MUMPS lock was held; its rate is the share of one core "
-      "that planning is serialised on.",
+      "Time spent inside MUMPS, summed over its copies; its rate is the cores "
+      "planning spends in MUMPS.",
       MetricType::Counter, lock.held_seconds);
+  Add(&families, "excite_mumps_copies",
+      "Copies of MUMPS loaded (the process's own and one per further concurrent "
+      "solve, at most 8); solves on different copies factorise in parallel.",
+      MetricType::Gauge, static_cast<double>(lock.copies));
   return families;
 }
 
