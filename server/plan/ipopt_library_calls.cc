@@ -32,8 +32,8 @@ MumpsCopies& TheMumpsCopies() {
   // slots); glibc allows 16 namespaces, and its static TLS ran out at the 12th
   // copy in a test program.
   constexpr int kMaxCopies = 8;
-  static MumpsCopies* const copies = new MumpsCopies(
-      Next<MumpsCopies::Entry>("dmumps_c"), &MumpsMutex(), kMaxCopies);
+  static MumpsCopies* const copies =
+      new MumpsCopies(Next<MumpsCopies::Entry>("dmumps_c"), &MumpsMutex(), kMaxCopies);
   return *copies;
 }
 

@@ -10,10 +10,10 @@ namespace excite::plan {
 // Ipopt object is shared between threads and its linear solver is thread-safe
 // (Ipopt's ChangeLog, 3.11.0, #167); MUMPS, the only linear solver of Debian's
 // Ipopt, is not (coin-or/Ipopt#733), nor is Debian's serial OpenBLAS
-// (blas/blas_lock.h). So solves run in parallel and only their calls into those
-// libraries take turns, call by call, as Ipopt 3.14 does for MUMPS inside:
-// ipopt_library_calls.cc defines dmumps_c and the BLAS and LAPACK routines that
-// libipopt and MUMPS call and that use OpenBLAS's shared buffers. The libraries
+// (blas/blas_lock.h). So solves run in parallel, each MUMPS instance on a copy of
+// MUMPS of its own where one is free, and calls into the BLAS take turns, call by
+// call: ipopt_library_calls.cc defines dmumps_c and the BLAS and LAPACK routines
+// that libipopt and MUMPS call and that use OpenBLAS's shared buffers. The libraries
 // call them through their PLT, so the executable's definitions win over the
 // libraries' own; each takes its lock (the BLAS lock, or the lock of the copy of
 // MUMPS the call's instance runs on: plan/mumps_copies.h) and calls the library's

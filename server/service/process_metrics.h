@@ -19,8 +19,9 @@ class ProcessCollector final : public prometheus::Collectable {
   std::vector<prometheus::MetricFamily> Collect() const override;
 };
 
-// excite_build_info{version,commit} 1, and the time spent waiting for and holding
-// the process-wide MUMPS lock (excite_mumps_lock_*; see plan::MumpsLockTotals).
+// excite_build_info{version,commit} 1, the time MUMPS calls spent waiting for and
+// holding their copies' locks (excite_mumps_lock_*) and the copies loaded
+// (excite_mumps_copies; see plan::MumpsLockTotals).
 class BuildAndLockCollector final : public prometheus::Collectable {
  public:
   std::vector<prometheus::MetricFamily> Collect() const override;

@@ -1,6 +1,7 @@
 // SolveTnlp on a one-variable problem: it solves, on several threads at once, and
-// its calls into MUMPS go through the process-wide MUMPS lock, which accounts for
-// the time spent waiting for and holding it.
+// its calls into MUMPS go through the wrapper that runs them on copies of MUMPS
+// under their locks, which accounts for the time spent waiting for and holding
+// them (the process's own copy's lock is MumpsMutex()).
 
 #include "server/plan/ipopt_solve.h"
 

@@ -176,8 +176,8 @@ TEST_F(MetricsTest, CountsRpcsSessionsAndSamples) {
               HasSubstr("excite_store_write_seconds_count{op=\"insert_samples\"} 1\n"));
   EXPECT_THAT(reply,
               HasSubstr("excite_store_write_seconds_count{op=\"save_model\"} 1\n"));
-  // Served beside them: the process, the build and the MUMPS lock (which a random
-  // plan does not take).
+  // Served beside them: the process, the build and MUMPS's locks and copies (which
+  // a random plan does not use).
   EXPECT_THAT(reply, HasSubstr("# TYPE process_cpu_seconds_total counter\n"));
   EXPECT_THAT(reply, HasSubstr("# TYPE process_resident_memory_bytes gauge\n"));
   EXPECT_THAT(reply, HasSubstr("# TYPE process_open_fds gauge\n"));
@@ -189,6 +189,7 @@ TEST_F(MetricsTest, CountsRpcsSessionsAndSamples) {
   EXPECT_THAT(reply, HasSubstr("excite_mumps_lock_acquisitions_total 0\n"));
   EXPECT_THAT(reply, HasSubstr("# TYPE excite_mumps_lock_wait_seconds_total counter\n"));
   EXPECT_THAT(reply, HasSubstr("# TYPE excite_mumps_lock_held_seconds_total counter\n"));
+  EXPECT_THAT(reply, HasSubstr("excite_mumps_copies 1\n"));  // the process's own
   EXPECT_THAT(HttpGet(port_, "/other"), HasSubstr(" 404 Not Found\r\n"));
   EXPECT_THAT(reply, Not(HasSubstr("UNKNOWN")));
 }
