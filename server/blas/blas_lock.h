@@ -11,16 +11,19 @@ namespace excite::blas {
 // thread-safe. Debian's serial OpenBLAS is built without USE_LOCKING: two threads
 // inside it at once share its buffer pool, and one gets wrong numbers (2 wrong
 // Cholesky factors in 6,000 from two threads on this machine; 0 with BLIS or the
-// reference BLAS). The GP's LAPACK calls take BlasLock; so do Ipopt's calls into
-// MUMPS and its level-2/3 BLAS and LAPACK calls (plan/ipopt_library_calls.h).
+// reference BLAS). Ipopt's level-2/3 BLAS and LAPACK calls and those of the
+// process's own copy of MUMPS take BlasLock (plan/ipopt_library_calls.h); the GP's
+// run on copies of LAPACK instead (lapack_copies.h), under BlasLock only if no
+// copy can be loaded.
 
 // True when the BLAS loaded is an OpenBLAS (any build): its calls must not
 // overlap. Decided once per process.
 bool BlasNeedsSerialising();
 
-// The process's BLAS lock (whatever BlasNeedsSerialising() says). Recursive: the
-// GP's BlasLock around a LAPACK call takes it again in that routine's wrapper
-// (plan/ipopt_library_calls.cc), and so does a whole-solve fallback's callback.
+// The process's BLAS lock (whatever BlasNeedsSerialising() says). Recursive: a
+// LapackTurn on the process's own LAPACK holds it around a call that takes it
+// again in that routine's wrapper (plan/ipopt_library_calls.cc), and so does a
+// whole-solve fallback's callback.
 std::recursive_mutex& BlasMutex();
 
 // Holds BlasMutex() for its lifetime if BlasNeedsSerialising(); a no-op otherwise.

@@ -6,10 +6,12 @@
 #include <algorithm>
 #include <cassert>
 
-#include "server/blas/blas_lock.h"
+#include "server/blas/lapack_copies.h"
 
 namespace excite::gp {
 namespace {
+
+static_assert(sizeof(lapack_int) == sizeof(int), "blas::LapackRoutines takes int");
 
 // LAPACK's Fortran interface takes every argument by pointer.
 lapack_int Stride(const Eigen::Ref<const Eigen::MatrixXd>& m) {
@@ -40,9 +42,9 @@ void Solve(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Ref<Eigen::MatrixX
   lapack_int info = 0;
   // dtrtrs: dtrsm after a check for a zero pivot, which a factor with positive
   // pivots does not have.
-  const blas::BlasLock lock;
-  LAPACK_dtrtrs(&lower, &transpose, &non_unit, &n, &nrhs, l.data(), &lda, b.data(), &ldb,
-                &info);
+  const blas::LapackTurn lapack;
+  lapack->dtrtrs(&lower, &transpose, &non_unit, &n, &nrhs, l.data(), &lda, b.data(), &ldb,
+                 &info, 1, 1, 1);
   assert(info == 0);
 }
 
@@ -56,8 +58,8 @@ bool CholeskyInPlace(Eigen::Ref<Eigen::MatrixXd> a) {
   lapack_int info = 0;
   const char lower = 'L';
   {
-    const blas::BlasLock lock;
-    LAPACK_dpotrf(&lower, &n, a.data(), &lda, &info);
+    const blas::LapackTurn lapack;
+    lapack->dpotrf(&lower, &n, a.data(), &lda, &info, 1);
   }
   return info == 0;
 }
@@ -71,8 +73,8 @@ Eigen::MatrixXd InverseFromCholesky(const Eigen::Ref<const Eigen::MatrixXd>& l) 
   lapack_int info = 0;
   const char lower = 'L';
   {
-    const blas::BlasLock lock;
-    LAPACK_dpotri(&lower, &n, inverse.data(), &n, &info);
+    const blas::LapackTurn lapack;
+    lapack->dpotri(&lower, &n, inverse.data(), &n, &info, 1);
   }
   // info > 0 only for a zero diagonal entry, which a successful factorisation
   // (positive pivots) cannot leave.

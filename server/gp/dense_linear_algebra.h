@@ -11,9 +11,9 @@ namespace excite::gp {
 // makes sure of it where OpenBLAS does not know the CPU: blas/cpu_kernels.h), so a
 // portable binary gets them; Eigen's own kernels only use the instructions the build
 // targets (SSE2 for a portable x86-64 build), 3-4x slower here at n >= 500
-// (bench/gp). Each call runs on the calling thread, under blas::BlasLock (calls
-// from several threads overlap only on a thread-safe BLAS), except the small
-// triangular solves below.
+// (bench/gp). Each call runs on the calling thread, on a copy of LAPACK no other
+// thread is in (blas::LapackTurn: calls from several threads run in parallel),
+// except the small triangular solves below, which need none.
 //
 // Matrices may be blocks of larger ones (the leading dimension is the outer
 // stride), column-major, as Eigen stores them.
@@ -29,7 +29,7 @@ Eigen::MatrixXd InverseFromCholesky(const Eigen::Ref<const Eigen::MatrixXd>& l);
 
 // B <- L^-1 B and B <- L^-T B for the lower triangle L of the square `l`
 // (dtrsm), B with l.rows() rows. A B of at most 64 columns (the points of a plan's
-// model callback) is solved by Eigen's own kernel, without the BLAS lock, so that
+// model callback) is solved by Eigen's own kernel, with no copy to take, so that
 // the model work of plans of different sessions runs in parallel: 1.2-1.4x
 // OpenBLAS's time per call at 15-64 columns against its SSE3 kernels, 1.5-2.5x
 // against its AVX-512 ones (3x at one column), a plan at n = 1000 7 % slower

@@ -1,10 +1,16 @@
 #include "server/gp/dense_linear_algebra.h"
 
 #include <gtest/gtest.h>
+#include <lapack.h>
 
 #include <Eigen/Dense>
 #include <atomic>
+#include <chrono>
+#include <future>
 #include <thread>
+
+#include "server/blas/blas_lock.h"
+#include "server/blas/lapack_copies.h"
 
 namespace excite::gp {
 namespace {
@@ -80,8 +86,9 @@ TEST(DenseLinearAlgebraTest, CholeskyReportsAnIndefiniteMatrix) {
 }
 
 // Two threads factorising at once get what one gets alone. Debian's serial
-// OpenBLAS, unlocked, got 2 of 6,000 such factors wrong on this machine:
-// blas::BlasLock is what keeps them apart.
+// OpenBLAS, unlocked, got 2 of 6,000 such factors wrong on this machine: each
+// factorisation runs on a copy of LAPACK no other thread is in
+// (blas::LapackTurn).
 TEST(DenseLinearAlgebraTest, ConcurrentFactorisationsAreExact) {
   const int n = 300;
   const Eigen::MatrixXd a = Eigen::MatrixXd::Random(n, n);
@@ -103,6 +110,45 @@ TEST(DenseLinearAlgebraTest, ConcurrentFactorisationsAreExact) {
   factorise();
   other.join();
   EXPECT_EQ(wrong.load(), 0);
+}
+
+// While one thread holds a copy of LAPACK, another gets a copy of its own at once,
+// and both give the bits of the process's own LAPACK.
+TEST(LapackTurnTest, TwoTurnsAtOnceRunOnCopiesOfTheirOwnWithTheSameBits) {
+  if (!blas::BlasNeedsSerialising()) GTEST_SKIP() << "a thread-safe BLAS: no copies";
+  const int n = 400;
+  const Eigen::MatrixXd a = Eigen::MatrixXd::Random(n, n);
+  const Eigen::MatrixXd k = a * a.transpose() + n * Eigen::MatrixXd::Identity(n, n);
+  const char lower = 'L';
+  const auto factor = [&](const blas::LapackRoutines* routines) {
+    Eigen::MatrixXd l = k;
+    int info = -1;
+    routines->dpotrf(&lower, &n, l.data(), &n, &info, 1);
+    EXPECT_EQ(info, 0);
+    return Eigen::MatrixXd(l.triangularView<Eigen::Lower>());
+  };
+  Eigen::MatrixXd own = k;
+  {
+    const blas::BlasLock lock;
+    lapack_int info = -1;
+    LAPACK_dpotrf(&lower, &n, own.data(), &n, &info);
+    ASSERT_EQ(info, 0);
+  }
+  own = own.triangularView<Eigen::Lower>();
+
+  const blas::LapackTurn first;
+  const blas::LapackRoutines* const first_routines = first.operator->();
+  auto second = std::async(std::launch::async, [&] {
+    const blas::LapackTurn turn;
+    return std::make_pair(turn.operator->(), factor(turn.operator->()));
+  });
+  // It must not wait for `first`.
+  ASSERT_EQ(second.wait_for(std::chrono::seconds(20)), std::future_status::ready);
+  const auto [second_routines, second_factor] = second.get();
+  EXPECT_NE(second_routines->dpotrf, first_routines->dpotrf);
+  EXPECT_GE(blas::LoadedLapackCopies(), 2);
+  EXPECT_EQ(factor(first_routines), own);
+  EXPECT_EQ(second_factor, own);
 }
 
 TEST(DenseLinearAlgebraTest, EmptyMatricesAreFine) {
