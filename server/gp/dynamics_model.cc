@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -542,18 +543,22 @@ absl::StatusOr<FitSummary> DynamicsModel::Build(bool fit_hyperparameters,
   const int threads = (outputs >= 2 && n >= kMinSamplesForThreads)
                           ? std::min(s.options.fit_threads, outputs)
                           : 1;
-  if (threads <= 1) {
-    for (int j = 0; j < outputs; ++j) fit_output(j);
-  } else {
-    std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) {
-      pool.emplace_back([&, t] {
-        for (int j = t; j < outputs; j += threads) fit_output(j);
-      });
-    }
-    for (int j = 0; j < outputs; j += threads) fit_output(j);
-    for (std::thread& th : pool) th.join();
+  std::atomic<int> next_output{0};
+  const auto fit_the_rest = [&] {
+    for (int j = next_output++; j < outputs; j = next_output++) fit_output(j);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) {
+    pool.emplace_back([&, t] {
+      if (t >= 2 && s.options.run_if_worker_free) {
+        s.options.run_if_worker_free(fit_the_rest);
+      } else {
+        fit_the_rest();
+      }
+    });
   }
+  fit_the_rest();
+  for (std::thread& th : pool) th.join();
 
   FitSummary summary;
   summary.fitted = fit;

@@ -2,6 +2,7 @@
 #define EXCITE_SERVER_GP_DYNAMICS_MODEL_H_
 
 #include <Eigen/Dense>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -53,9 +54,13 @@ struct DynamicsModelOptions {
   std::vector<Hyperparameters> fixed;
   FitOptions fit;
   // Threads for Refit(): outputs are fitted independently, on up to this many
-  // std::threads (only when there are >= 2 outputs and >= 64 samples). Results do
-  // not depend on it.
+  // std::threads (only when there are >= 2 outputs and >= 64 samples), each taking
+  // the next output not yet taken. Results do not depend on it.
   int fit_threads = 2;
+  // If set, the third and further fit threads each run their share only through
+  // it: it runs the work it is given if a worker of the process is free (the
+  // caller's own thread and the second always fit). Null: all fit_threads run.
+  std::function<void(const std::function<void()>& work)> run_if_worker_free;
   // Centre and half-width of each dimension of z used to normalise GP inputs
   // (z_dim entries each). A non-finite entry means "from the data at the first
   // fit". Typically from the region of interest and the input bounds.

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <exception>
+#include <functional>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "common/logging.h"
+#include "server/plan/plan_slots.h"
 #include "server/plan/reference_set.h"
 #include "server/plan/rollout.h"
 #include "server/session/memory_budget.h"
@@ -98,6 +100,22 @@ absl::StatusOr<Eigen::VectorXd> StateAfter(const gp::DynamicsModel& model,
   return Eigen::VectorXd(ahead.means.row(ahead.means.rows() - 1).transpose());
 }
 
+// A refit uses the process's free planner workers: one fit thread per planner slot,
+// at least two (the caller's and one more, as before) and at most four (the GP's
+// copies of LAPACK, blas/lapack_copies.h); threads beyond two fit only while a slot
+// is free, holding it.
+constexpr int kMaxFitThreads = 4;
+int FitThreads() { return std::clamp(plan::ConcurrentPlans(), 2, kMaxFitThreads); }
+
+gp::DynamicsModelOptions WithFitWorkers(gp::DynamicsModelOptions options) {
+  options.fit_threads = FitThreads();
+  options.run_if_worker_free = [](const std::function<void()>& work) {
+    plan::PlanSlot slot;
+    if (slot.TryAcquire()) work();
+  };
+  return options;
+}
+
 }  // namespace
 
 Session::Session(std::string id, SessionSpec spec, Metadata metadata,
@@ -157,7 +175,8 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Create(std::string id, Session
                                                          store::SessionStore* store,
                                                          int64_t fence) {
   try {
-    absl::StatusOr<gp::DynamicsModel> model = gp::DynamicsModel::Create(spec.model);
+    absl::StatusOr<gp::DynamicsModel> model =
+        gp::DynamicsModel::Create(WithFitWorkers(spec.model));
     if (!model.ok()) {
       return absl::Status(model.status().code(),
                           absl::StrCat("config: ", model.status().message()));
@@ -202,7 +221,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Restore(
     }
     const bool options_fit_kernel = options.fit_kernel;
     absl::StatusOr<gp::DynamicsModel> model =
-        gp::DynamicsModel::Create(std::move(options));
+        gp::DynamicsModel::Create(WithFitWorkers(std::move(options)));
     if (!model.ok()) {
       return absl::Status(model.status().code(), absl::StrCat("session ", record.id, ": ",
                                                               model.status().message()));
@@ -889,9 +908,9 @@ void Session::AttachMemoryBudget(MemoryBudget* budget, int64_t reserved) {
 int64_t Session::EstimatedBytes(int64_t samples) const {
   const gp::DynamicsModelOptions& options = spec_.model;
   return kSessionBytes + gp::DynamicsModel::PeakBytes(
-                             samples, spec_.state_dim, spec_.input_dim,
-                             options.fit_threads, options.sparse_above,
-                             options.sparse.max_inducing, options.sparse_fit_samples);
+                             samples, spec_.state_dim, spec_.input_dim, FitThreads(),
+                             options.sparse_above, options.sparse.max_inducing,
+                             options.sparse_fit_samples);
 }
 
 void Session::SettleBudget() {

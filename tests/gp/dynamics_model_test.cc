@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <atomic>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -193,6 +195,54 @@ TEST(DynamicsModelTest, FitLearnsPendulumAndIsDeterministic) {
   const double rmse = std::sqrt((mean - test.next).squaredNorm() / 100);
   EXPECT_LT(rmse, 0.1);  // the rate changes by up to ~3 per step
   EXPECT_TRUE((var.array() > 0).all());
+}
+
+// Four outputs (two pendulums side by side) fitted on one thread, on four, and on
+// four whose third and fourth run only if run_if_worker_free lets them: the same
+// hyperparameters, to the bit; the gate is asked once per thread beyond two.
+TEST(DynamicsModelTest, FitThreadsAndFreeWorkersDoNotChangeTheFit) {
+  const Transitions a = MakeTransitions(150, 11);
+  const Transitions b = MakeTransitions(150, 12);
+  Eigen::MatrixXd x(150, 4), u(150, 2), next(150, 4);
+  x << a.x, b.x;
+  u << a.u, b.u;
+  next << a.next, b.next;
+  DynamicsModelOptions o;
+  o.state_dim = 4;
+  o.input_dim = 2;
+  o.measurement_noise_variance = kNoiseVar;
+  o.input_center = Eigen::VectorXd::Zero(6);
+  o.input_half_width = Eigen::VectorXd(6);
+  o.input_half_width << 3.0, 6.0, 3.0, 6.0, 2.0, 2.0;
+  const auto fit = [&](int threads,
+                       std::function<void(const std::function<void()>&)> gate) {
+    DynamicsModelOptions options = o;
+    options.fit_threads = threads;
+    options.run_if_worker_free = std::move(gate);
+    absl::StatusOr<DynamicsModel> model = DynamicsModel::Create(options);
+    EXPECT_TRUE(model.ok());
+    EXPECT_TRUE(model->AddSamples(x, u, next).ok());
+    EXPECT_TRUE(model->Refit().ok());
+    return model->hyperparameters();
+  };
+  const std::vector<Hyperparameters> alone = fit(1, nullptr);
+  std::atomic<int> asked{0};
+  const std::vector<Hyperparameters> granted =
+      fit(4, [&](const std::function<void()>& work) {
+        ++asked;
+        work();
+      });
+  EXPECT_EQ(asked.load(), 2);
+  const std::vector<Hyperparameters> refused =
+      fit(4, [](const std::function<void()>&) {});
+  for (const auto* other : {&granted, &refused}) {
+    ASSERT_EQ(other->size(), 4u);
+    for (int j = 0; j < 4; ++j) {
+      EXPECT_EQ((*other)[j].lengthscales, alone[j].lengthscales) << j;
+      EXPECT_EQ((*other)[j].signal_variance, alone[j].signal_variance) << j;
+      EXPECT_EQ((*other)[j].noise_variance, alone[j].noise_variance) << j;
+    }
+  }
 }
 
 // bound_hits() names the lengthscales a fit left at a bound: recomputed here
