@@ -8,6 +8,8 @@
 #include <dmumps_c.h>
 
 #include <cmath>
+#include <cstdio>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -138,6 +140,25 @@ TEST(MumpsCopiesTest, SolvesOnManyThreadsAtOnceGiveTheSameBitsAsAlone) {
   EXPECT_GE(totals.copies, 2);
   EXPECT_LE(totals.copies, 3);
   EXPECT_EQ(totals.calls, 3 * (1 + kThreads * 50));  // start, solve, end each
+}
+
+// Eight instances at once on a cap of eight: each solves right, whether every copy
+// loaded or glibc's namespaces or static TLS ran out first (then the rest share).
+TEST(MumpsCopiesTest, InstancesBeyondTheCopiesThatLoadShareThem) {
+  std::recursive_mutex own_lock;
+  MumpsCopies copies(LibraryDmumps(), &own_lock, 8);
+  std::vector<std::unique_ptr<Tridiagonal>> systems;
+  for (int k = 0; k < 8; ++k) {
+    systems.push_back(std::make_unique<Tridiagonal>(&copies, 200));
+    ASSERT_EQ(systems.back()->started(), 0) << k;
+  }
+  const int loaded = copies.ReadTotals().copies;
+  EXPECT_GE(loaded, 2);
+  EXPECT_LE(loaded, 8);
+  const std::vector<double> first = systems[0]->Solve();
+  EXPECT_LT(Residual(first), 1e-12);
+  for (int k = 1; k < 8; ++k) EXPECT_EQ(systems[k]->Solve(), first) << k;
+  std::printf("copies of MUMPS loaded for 8 instances: %d\n", loaded);
 }
 
 TEST(MumpsCopiesTest, WithOneCopyAllowedInstancesShareTheProcesssOwn) {
